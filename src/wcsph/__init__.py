@@ -1,0 +1,15 @@
+"""wcsph: weakly compressible SPH for free-surface flows, on CPU (Numba) and NVIDIA GPUs."""
+from .config import CaseError, load, validate
+from .solver import Simulation, SimulationError
+
+__all__ = ["CaseError", "Simulation", "SimulationError", "load", "validate", "run"]
+__version__ = "0.1.0"
+
+
+def run(case, output=None, overrides=(), **kwargs):
+    """Run a case (path, shipped name or case dict) and return the summary dict."""
+    if isinstance(case, dict):
+        cfg = validate(case)
+    else:
+        cfg = load(case, overrides)
+    return Simulation(cfg, backend=kwargs.pop("backend", None)).run(output=output, **kwargs)

@@ -1,0 +1,34 @@
+"""ParaView output: one .vtu per output time for the fluid (written with meshio), one .vtu
+for the static walls, and .pvd collections that tie them into a time series."""
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import meshio
+import numpy as np
+
+
+def write_points(path, x, point_data):
+    """Particles as VTK vertex cells; ``x`` is (dim, N), vectors in ``point_data`` too."""
+    n = x.shape[1]
+    pts = np.zeros((n, 3))
+    pts[:, : x.shape[0]] = x.T
+    data = {}
+    for k, a in point_data.items():
+        a = np.asarray(a)
+        if a.ndim == 2:
+            v = np.zeros((n, 3), dtype=a.dtype)
+            v[:, : a.shape[0]] = a.T
+            a = v
+        data[k] = a
+    mesh = meshio.Mesh(pts, [("vertex", np.arange(n).reshape(-1, 1))], point_data=data)
+    mesh.write(path, file_format="vtu")
+
+
+def write_pvd(path, entries):
+    """``entries``: (time, part, file name) triples; ParaView reads parts as one dataset."""
+    root = ET.Element("VTKFile", type="Collection", version="0.1", byte_order="LittleEndian")
+    coll = ET.SubElement(root, "Collection")
+    for t, part, name in entries:
+        ET.SubElement(coll, "DataSet", timestep=f"{t:.9g}", group="", part=str(part), file=name)
+    ET.indent(root)
+    ET.ElementTree(root).write(Path(path), xml_declaration=True, encoding="utf-8")

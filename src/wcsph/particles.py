@@ -1,0 +1,35 @@
+"""Particle sets as structure-of-arrays.
+
+A set is a dict of named arrays: vectors are stored as (dim, N) arrays, one contiguous row
+per component, scalars as (N,) arrays. ``cell`` and ``start`` hold the cell list. The
+compiled loops see a set through a namedtuple ("view") whose fields a model chooses; the
+loop itself only needs ``x``, ``cell`` and ``start``.
+"""
+import numpy as np
+
+
+class ParticleSet:
+    def __init__(self, name, dim, arrays):
+        self.name = name
+        self.dim = dim
+        self.arrays = dict(arrays)
+        self.n = self.arrays["x"].shape[1]
+
+    def __getitem__(self, key):
+        return self.arrays[key]
+
+    def __setitem__(self, key, value):
+        self.arrays[key] = value
+
+    def add(self, key, shape_kind, dtype, backend, fill=0.0):
+        """Add a per-particle field: ``shape_kind`` 'scalar' or 'vector'."""
+        shape = (self.n,) if shape_kind == "scalar" else (self.dim, self.n)
+        self.arrays[key] = backend.to_device(np.full(shape, fill, dtype=dtype))
+
+    def per_particle(self):
+        """Names of the arrays indexed by particle (reordered when particles are sorted)."""
+        return [k for k, a in self.arrays.items()
+                if k != "start" and not k.startswith("_") and a.shape[-1] == self.n]
+
+    def view(self, cls):
+        return cls(**{f: self.arrays[f] for f in cls._fields})

@@ -1,0 +1,230 @@
+"""The simulation driver: set-up from a case, the time loop, checks and output."""
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import geometry
+from .backends import get_backend
+from .config import CaseError
+from .grid import Grid
+from .integrators import INTEGRATORS
+from .io import probes, vtk
+from .kernels import SUPPORT, kernel_numpy, kernel_params
+from .models import get_model
+from .particles import ParticleSet
+from .progress import Progress
+
+
+class SimulationError(RuntimeError):
+    """The run stopped on a non-physical state (NaN, runaway velocity)."""
+
+
+class Simulation:
+    """A case set up on a backend, ready to step. ``case`` is a validated case dict."""
+
+    def __init__(self, case, backend=None):
+        self.case = case
+        self.dim = dim = case["dim"]
+        self.dtype = dtype = np.dtype(case["precision"]).type
+        self.backend = be = get_backend(backend or case["backend"])
+        self.dp = dp = case["dp"]
+        m = case["model"]
+        self.h = h = m["smoothing_ratio"] * dp
+        fluid_x, fluid_v, wall_x, lo, hi = geometry.build(case)
+        self.domain = (lo, hi)
+        self.grid = Grid.covering(lo, hi, SUPPORT * h)
+        self.G = self.grid.view()
+
+        ph = case["physics"]
+        self.rho0, self.gamma = ph["rho0"], ph["gamma"]
+        self.gravity = np.asarray(ph["gravity"], dtype=float)
+        self.c0 = ph["speed_of_sound"] or self._default_sound_speed(fluid_x, fluid_v)
+        w_np, _ = kernel_numpy(m["kernel"], dim, h)
+        self.mass = self.rho0 / geometry.lattice_density_sum(w_np, dim, dp, h)
+
+        self.model = get_model(m["name"])(case, be)
+        self.advance = be.make_map(INTEGRATORS["symplectic_euler"](dim))
+        kp = dict(kernel_params(m["kernel"], dim, h), rc=SUPPORT * h)
+        self.P = self.model.params(kp, self.rho0, self.gamma, self.c0, self.gravity, 1.0)
+
+        n = fluid_x.shape[1]
+        self.fluid = ParticleSet("fluid", dim, {"x": be.to_device(fluid_x.astype(dtype)),
+                                               "v": be.to_device(fluid_v.astype(dtype))})
+        for name, kind in self.model.fluid_fields():
+            self.fluid.add(name, kind, dtype, be)
+        self.fluid["m"] = be.to_device(np.full(n, self.mass, dtype=dtype))
+        self.walls = ParticleSet("walls", dim, {"x": be.to_device(wall_x.astype(dtype))})
+        self.walls.add("v", "vector", dtype, be)
+        for name, kind in self.model.wall_fields():
+            self.walls.add(name, kind, dtype, be)
+        be.sort(self.walls, self.grid)
+        be.sort(self.fluid, self.grid)
+        self.model.initialize(self.fluid, self.walls, self.P, self.G, self.mass)
+
+        self.t = 0.0
+        self.steps = 0
+        self.dropped = 0
+        self.vmax = float(np.max(np.linalg.norm(fluid_v, axis=0))) if n else 0.0
+        self.amax = float(np.linalg.norm(self.gravity))
+
+    def _default_sound_speed(self, x, v):
+        """c0 = 10 max(sqrt(|g| H), |v0|): density varies by about 1 % (Monaghan 1994)."""
+        g = float(np.linalg.norm(self.case["physics"]["gravity"]))
+        height = float(x[-1].max() - x[-1].min()) + self.dp
+        vmax = float(np.max(np.linalg.norm(v, axis=0))) if v.size else 0.0
+        c0 = 10.0 * max(math.sqrt(g * height), vmax)
+        if c0 == 0:
+            raise CaseError(f"{self.case['_source']}: physics.speed_of_sound: must be set when "
+                            "there is neither gravity nor an initial velocity")
+        return c0
+
+    # ------------------------------------------------------------------------------ stepping
+    def gravity_factor(self, t):
+        """Gravity switched on smoothly over ``physics.gravity_ramp_time`` t_d, Adami, Hu &
+        Adams (2012): g(t) = g (sin((t/t_d - 1/2) pi) + 1) / 2, so that a column at rest starts
+        without the pressure wave a sudden load excites."""
+        td = self.case["physics"]["gravity_ramp_time"]
+        if td <= 0 or t >= td:
+            return 1.0
+        return 0.5 * (math.sin((t / td - 0.5) * math.pi) + 1.0)
+
+    def time_step(self):
+        """CFL (sound speed plus flow speed) and force conditions, Monaghan (1992)."""
+        tc = self.case["time"]
+        if tc["dt"] > 0:
+            return tc["dt"]
+        dt = tc["cfl"] * self.h / (self.c0 + self.vmax)
+        if self.amax > 0:
+            dt = min(dt, tc["force_cfl"] * math.sqrt(self.h / self.amax))
+        return dt
+
+    def step(self, dt):
+        be = self.backend
+        self.dropped += be.sort(self.fluid, self.grid)
+        self.P = self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t))
+        self.model.derivatives(self.fluid, self.walls, self.P, self.G)
+        self.advance(self.fluid.view(self.model.fluid_view), self.P)
+        self.t += dt
+        self.steps += 1
+        vmax2, amax2, bad = be.check(self.fluid)
+        self.vmax, self.amax = math.sqrt(vmax2), math.sqrt(amax2)
+        if bad:
+            raise SimulationError(f"{bad} fluid particles have a non-finite position, velocity or "
+                                  f"acceleration at t = {self.t:.6g} s (step {self.steps}): the run blew up")
+        if self.vmax > self.c0:
+            raise SimulationError(f"runaway velocity {self.vmax:.3g} m/s exceeds the speed of sound "
+                                  f"{self.c0:.3g} m/s at t = {self.t:.6g} s (step {self.steps})")
+
+    def host(self, pset, *names):
+        return [self.backend.to_host(pset[k]) for k in names]
+
+    # ------------------------------------------------------------------------------ running
+    def run(self, output=None, end_time=None, progress=None):
+        """Step to ``end_time`` (default the case's); write output to directory ``output``
+        (nothing if None). Returns the run summary (also written to ``run.json``)."""
+        case = self.case
+        end = end_time if end_time is not None else case["time"]["end"]
+        oc = case["output"]
+        interval = oc["interval"] or end / 20
+        out = Path(output) if output is not None else None
+        writer = Output(self, out, oc) if out is not None else None
+        max_steps = case["time"]["max_steps"]
+        show = oc["progress"] if progress is None else progress
+
+        t_start = time.perf_counter()
+        next_out = self.t
+        io_time = 0.0
+        compile_time = None
+        t_loop = None
+        status, message = "completed", ""
+        try:
+            with Progress(end, enabled=show) as bar:
+                while True:
+                    if writer is not None and self.t >= next_out - 1e-12:
+                        t0 = time.perf_counter()
+                        writer.write()
+                        io_time += time.perf_counter() - t0
+                        next_out += interval
+                    if self.t >= end - 1e-12 or (max_steps and self.steps >= max_steps):
+                        break
+                    dt = min(self.time_step(), end - self.t)
+                    t0 = time.perf_counter()
+                    self.step(dt)
+                    if compile_time is None:
+                        compile_time = time.perf_counter() - t0
+                        t_loop = time.perf_counter()
+                        steps0 = self.steps
+                        io0 = io_time
+                    elapsed = time.perf_counter() - t_loop
+                    rate = (self.steps - steps0) / max(elapsed - (io_time - io0), 1e-9)
+                    bar.update(self.t, self.steps, rate)
+        except SimulationError as e:
+            status, message = "failed", str(e)
+            if writer is not None:
+                writer.write(failed=True)
+                message += f"; last good output: {writer.last_good}"
+        wall = time.perf_counter() - t_start
+        stepping = (time.perf_counter() - t_loop - (io_time - io0)) if t_loop else 0.0
+        timed_steps = self.steps - steps0 if t_loop else 0
+        summary = {
+            "case": case["name"], "status": status, "message": message, "model": case["model"]["name"],
+            "backend": self.backend.name, "precision": case["precision"], "dim": self.dim, "dp": self.dp,
+            "h": self.h, "speed_of_sound": self.c0, "particle_mass": self.mass,
+            "n_fluid": self.fluid.n, "n_boundary": self.walls.n, "dropped": self.dropped,
+            "steps": self.steps, "end_time": self.t, "wall_time_s": wall,
+            "compile_time_s": compile_time or 0.0, "io_time_s": io_time, "stepping_time_s": stepping,
+            "particle_steps_per_s": self.fluid.n * timed_steps / stepping if stepping > 0 else 0.0,
+        }
+        if writer is not None:
+            writer.close(summary)
+        if status == "failed":
+            raise SimulationError(message)
+        return summary
+
+
+class Output:
+    """VTK series, probes.csv and run.json in one directory."""
+
+    def __init__(self, sim, out, oc):
+        self.sim, self.out, self.oc = sim, out, oc
+        out.mkdir(parents=True, exist_ok=True)
+        self.entries = []
+        self.count = 0
+        self.last_good = "(none written)"
+        cols = ["time", "step", "dt", "n_fluid", "kinetic_energy", "potential_energy"]
+        if oc["surge_front"]:
+            cols.append("surge_front")
+        self.probes = probes.ProbeWriter(out / "probes.csv", cols)
+        if oc["vtk"] and sim.walls.n:
+            vtk.write_points(out / "walls.vtu", sim.host(sim.walls, "x")[0],
+                             {"psi": sim.host(sim.walls, "psi")[0]})
+
+    def write(self, failed=False):
+        sim = self.sim
+        x, v, rho, p, m = sim.host(sim.fluid, "x", "v", "rho", "p", "m")
+        if self.oc["vtk"]:
+            name = "fluid_failed.vtu" if failed else f"fluid_{self.count:04d}.vtu"
+            vtk.write_points(self.out / name, x, {"rho": rho, "p": p, "v": v})
+            if not failed:
+                self.entries.append((sim.t, 0, name))
+                if sim.walls.n:
+                    self.entries.append((sim.t, 1, "walls.vtu"))
+                vtk.write_pvd(self.out / "fluid.pvd", [e for e in self.entries if e[1] == 0])
+                vtk.write_pvd(self.out / "case.pvd", self.entries)
+                self.last_good = f"{self.out / name} (t = {sim.t:.6g} s)"
+        if failed:
+            return
+        ek, ep = probes.energies(x, v, m, sim.gravity)
+        row = {"time": sim.t, "step": sim.steps, "dt": float(sim.P.dt) if sim.steps else 0.0,
+               "n_fluid": sim.fluid.n, "kinetic_energy": ek, "potential_energy": ep}
+        if self.oc["surge_front"]:
+            row["surge_front"] = probes.surge_front(x, sim.dp)
+        self.probes.write(row)
+        self.count += 1
+
+    def close(self, summary):
+        self.probes.close()
+        (self.out / "run.json").write_text(json.dumps(summary, indent=2) + "\n")
