@@ -29,7 +29,7 @@ class ParticleSet:
     def per_particle(self):
         """Names of the arrays indexed by particle (reordered when particles are sorted)."""
         return [k for k, a in self.arrays.items()
-                if k != "start" and not k.startswith("_") and a.shape[-1] == self.n]
+                if k != "start" and not k.startswith("_") and a.shape[len(a.shape) - 1] == self.n]
 
     def view(self, cls):
         return cls(**{f: self.arrays[f] for f in cls._fields})

@@ -73,13 +73,13 @@ def _check(x, v, a):
     return vmax2, amax2, bad
 
 
-def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero):
+def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True):
     """The one CPU neighbour loop: for each particle i of set I, visit the particles of
     J1 (and J2 when ``use2``) within the support radius, fold them into an accumulator with
     ``pair*``, then store it with ``finish``."""
     oz_lo, oz_hi = (-1, 2) if dim == 3 else (0, 1)
 
-    @njit(parallel=True, fastmath=True, cache=True)
+    @njit(parallel=True, fastmath=True, cache=cache)
     def run(I, J1, J2, P, G):
         rc2 = P.rc2
         for i in prange(I.x.shape[1]):
@@ -133,10 +133,13 @@ class CpuBackend:
     def to_host(self, a):
         return np.asarray(a)
 
-    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None):
+    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True):
+        """The compiled loop of one pass. ``cache=False`` for passes whose set or parameter
+        types live outside the package (Numba's cache index of the loop is shared by all its
+        closures and must unpickle in every process)."""
         use2 = pair2 is not None
         return _make_pass_loop(dim, init, pair1, pair2 if use2 else pair1, finish, use2,
-                               np.dtype(dtype).type(0))
+                               np.dtype(dtype).type(0), cache)
 
     def make_map(self, fn):
         return _make_map_loop(fn)

@@ -116,7 +116,7 @@ class ClassicWCSPH:
             w = walls.view(WallView)
             self.volume_pass(w, w, w, P, G)
         else:
-            walls["psi"][...] = lattice_mass
+            walls["psi"] = self.backend.to_device(np.full(walls.n, lattice_mass, dtype=self.dtype))
 
     def derivatives(self, fluid, walls, P, G):
         """rho, p and a of every fluid particle at the current state."""

@@ -1,0 +1,44 @@
+"""The CUDA kernels, run in Numba's CUDA simulator, reproduce the CPU backend."""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+pytest.importorskip("numba.cuda")
+
+SCRIPT = r"""
+import json, sys, numpy as np, wcsph
+from wcsph.config import load
+dim = int(sys.argv[1])
+name = "dam_break_2d" if dim == 2 else "dam_break_3d"
+res = {}
+for be in ("cpu", "cuda"):
+    case = load(name, [("dp", 0.1 if dim == 2 else 0.06), ("time.max_steps", 4), ("time.dt", 5e-4),
+                       ("precision", "float64")])
+    sim = wcsph.Simulation(case, backend=be)
+    sim.run(progress=False)
+    x, v, rho, p = sim.host(sim.fluid, "x", "v", "rho", "p")
+    o = np.lexsort(x)
+    res[be] = (x[:, o], v[:, o], rho[o], p[o], sim.fluid.n, sim.steps)
+c, g = res["cpu"], res["cuda"]
+print(json.dumps({"n": [c[4], g[4]], "steps": [c[5], g[5]],
+                  "dx": float(np.abs(c[0] - g[0]).max()), "dv": float(np.abs(c[1] - g[1]).max()),
+                  "drho": float(np.abs(c[2] - g[2]).max()), "dp": float(np.abs(c[3] - g[3]).max()),
+                  "vmax": float(np.abs(c[1]).max()), "pmax": float(np.abs(c[3]).max())}))
+"""
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_cuda_kernels_match_cpu_in_simulator(dim):
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    r = subprocess.run([sys.executable, "-c", SCRIPT, str(dim)], capture_output=True, text=True,
+                       env=env, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    res = json.loads(r.stdout.strip().splitlines()[-1])
+    assert res["n"][0] == res["n"][1] and res["n"][0] > 50
+    assert res["steps"] == [4, 4]
+    assert res["vmax"] > 0 and res["pmax"] > 0  # something happened
+    assert res["dx"] < 1e-12 and res["dv"] < 1e-10
+    assert res["drho"] < 1e-9 and res["dp"] < 1e-6 * res["pmax"] + 1e-9
