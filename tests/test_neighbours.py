@@ -19,8 +19,8 @@ def _make_loop(backend, dim):
         return (0.0, 0.0)
 
     @register_jitable
-    def pair(i, j, dx, dy, dz, r2, I, J, P, acc):
-        return (acc[0] + 1.0, acc[1] + np.sqrt(r2))
+    def pair(i, j, dx, dy, dz, r, I, J, P, acc):
+        return (acc[0] + 1.0, acc[1] + r)
 
     @register_jitable
     def finish(i, I, P, acc):

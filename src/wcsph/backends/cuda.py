@@ -99,7 +99,7 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero):
                     dz = zi - J1.x[2, j] if dim == 3 else zero
                     r2 = dx * dx + dy * dy + dz * dz
                     if r2 < rc2:
-                        acc = pair1(i, j, dx, dy, dz, r2, I, J1, P, acc)
+                        acc = pair1(i, j, dx, dy, dz, math.sqrt(r2), I, J1, P, acc)
                 if use2:
                     for j in range(J2.start[cc - 1], J2.start[cc + 2]):
                         dx = xi - J2.x[0, j]
@@ -107,7 +107,7 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero):
                         dz = zi - J2.x[2, j] if dim == 3 else zero
                         r2 = dx * dx + dy * dy + dz * dz
                         if r2 < rc2:
-                            acc = pair2(i, j, dx, dy, dz, r2, I, J2, P, acc)
+                            acc = pair2(i, j, dx, dy, dz, math.sqrt(r2), I, J2, P, acc)
         finish(i, I, P, acc)
 
     def launch(I, J1, J2, P, G):

@@ -17,7 +17,7 @@ from ..physics.eos import make_tait
 from ..physics.pressure import make_akinci_pressure, make_symmetric_pressure
 from ..physics.viscosity import make_xsph, make_xsph_wall
 
-FluidView = namedtuple("FluidView", "x v a rho p m cell start")
+FluidView = namedtuple("FluidView", "x v a rho p pr vol m cell start")
 WallView = namedtuple("WallView", "x v psi cell start")
 Params = namedtuple("Params", "rc2 h_inv w_norm g_norm rho0 rho0_inv eos_b gamma gx gy gz dt xsph_dt wall_xsph_dt")
 
@@ -40,8 +40,11 @@ def _stores(ctx, eos):
 
     @register_jitable
     def store_density(i, I, P, acc):
+        p = eos(acc, P)
         I.rho[i] = acc
-        I.p[i] = eos(acc, P)
+        I.p[i] = p
+        I.pr[i] = p / (acc * acc)
+        I.vol[i] = I.m[i] / acc
 
     @register_jitable
     def store_acceleration(i, I, P, acc):
@@ -82,7 +85,8 @@ class ClassicWCSPH:
 
     def fluid_fields(self):
         """Per-particle fields the model needs beyond x, v: (name, 'scalar'|'vector')."""
-        return [("a", "vector"), ("rho", "scalar"), ("p", "scalar"), ("m", "scalar")]
+        return [("a", "vector"), ("rho", "scalar"), ("p", "scalar"), ("pr", "scalar"), ("vol", "scalar"),
+                ("m", "scalar")]
 
     def wall_fields(self):
         return [("psi", "scalar")]

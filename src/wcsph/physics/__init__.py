@@ -1,7 +1,7 @@
 """Physics terms: small jitable functions of one particle (EOS) or one particle pair.
 
-A pair term has the signature ``term(i, j, dx, dy, dz, r2, I, J, P, acc) -> acc``: particle
-i of set I, neighbour j of set J, (dx, dy, dz) = x_i - x_j, r2 = |x_i - x_j|^2, P the
+A pair term has the signature ``term(i, j, dx, dy, dz, r, I, J, P, acc) -> acc``: particle
+i of set I, neighbour j of set J, (dx, dy, dz) = x_i - x_j, r = |x_i - x_j| < support, P the
 parameter tuple, acc the accumulator tuple of the pass. Terms are built by factories that
 take a ``Ctx`` (dtype, dimension, kernel), and ``compose`` chains several into one.
 """
@@ -15,8 +15,8 @@ from numba.extending import register_jitable
 
 def _chain(f, g):
     @register_jitable
-    def both(i, j, dx, dy, dz, r2, I, J, P, acc):
-        return g(i, j, dx, dy, dz, r2, I, J, P, f(i, j, dx, dy, dz, r2, I, J, P, acc))
+    def both(i, j, dx, dy, dz, r, I, J, P, acc):
+        return g(i, j, dx, dy, dz, r, I, J, P, f(i, j, dx, dy, dz, r, I, J, P, acc))
 
     return both
 

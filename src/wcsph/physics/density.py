@@ -9,8 +9,8 @@ def make_summation(ctx):
     kernel_w = ctx.w
 
     @register_jitable
-    def term(i, j, dx, dy, dz, r2, I, J, P, acc):
-        return acc + J.m[j] * kernel_w(np.sqrt(r2), P)
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        return acc + J.m[j] * kernel_w(r, P)
 
     return term
 
@@ -21,8 +21,8 @@ def make_akinci_density(ctx):
     kernel_w = ctx.w
 
     @register_jitable
-    def term(i, j, dx, dy, dz, r2, I, J, P, acc):
-        return acc + J.psi[j] * kernel_w(np.sqrt(r2), P)
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        return acc + J.psi[j] * kernel_w(r, P)
 
     return term
 
@@ -33,7 +33,7 @@ def make_akinci_volume(ctx):
     kernel_w = ctx.w
 
     @register_jitable
-    def term(i, j, dx, dy, dz, r2, I, J, P, acc):
-        return acc + kernel_w(np.sqrt(r2), P)
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        return acc + kernel_w(r, P)
 
     return term

@@ -1,4 +1,5 @@
-"""Pressure accelerations. The accumulator is the acceleration (ax, ay, az)."""
+"""Pressure accelerations. The accumulator is the acceleration (ax, ay, az); ``pr`` is
+p/rho^2 of each particle, stored by the density pass so that no pair divides."""
 import numpy as np
 from numba.extending import register_jitable
 
@@ -10,10 +11,8 @@ def make_symmetric_pressure(ctx):
     kernel_grad = ctx.grad
 
     @register_jitable
-    def term(i, j, dx, dy, dz, r2, I, J, P, acc):
-        pi = I.p[i] / (I.rho[i] * I.rho[i])
-        pj = J.p[j] / (J.rho[j] * J.rho[j])
-        f = -J.m[j] * (pi + pj) * kernel_grad(np.sqrt(r2), P)
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        f = -J.m[j] * (I.pr[i] + J.pr[j]) * kernel_grad(r, P)
         return (acc[0] + f * dx, acc[1] + f * dy, acc[2] + f * dz)
 
     return term
@@ -28,9 +27,8 @@ def make_akinci_pressure(ctx):
     kernel_grad = ctx.grad
 
     @register_jitable
-    def term(i, j, dx, dy, dz, r2, I, J, P, acc):
-        pi = I.p[i] / (I.rho[i] * I.rho[i])
-        f = -J.psi[j] * (pi + pi) * kernel_grad(np.sqrt(r2), P)
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        f = -J.psi[j] * (I.pr[i] + I.pr[i]) * kernel_grad(r, P)
         return (acc[0] + f * dx, acc[1] + f * dy, acc[2] + f * dz)
 
     return term
