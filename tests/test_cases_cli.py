@@ -45,6 +45,7 @@ def _case(**changes):
     ({"domain": {"min": [0.0, 0.0], "max": [0.3, 2.0]}}, "fluid: "),
     ({"time": {}}, "time.end: missing (required)"),
     ({"model": {"kernel": "gauss"}}, "model.kernel: must be one of"),
+    ({"physics": {"kappa": 100.0, "speed_of_sound": 10.0}}, "physics.kappa: give kappa or speed_of_sound"),
 ])
 def test_bad_input_names_the_key(changes, message):
     from wcsph import Simulation
@@ -138,3 +139,30 @@ def test_blow_up_stops_cleanly(tmp_path):
     assert "run stopped" in r.stderr and "last good output" in r.stderr
     assert (out / "fluid_failed.vtu").exists() and (out / "fluid_0000.vtu").exists()
     assert json.loads((out / "run.json").read_text())["status"] == "failed"
+
+
+def test_kappa_sets_the_sound_speed():
+    from wcsph import Simulation
+
+    sim = Simulation(validate(_case(physics={"kappa": 400.0}), src="c.toml"))
+    assert sim.c0 == 20.0
+    assert sim.P.eos_b == np.float32(400.0 * 1000.0 / 7.0)
+
+
+def test_obstacle_displaces_fluid_and_is_sampled_as_walls():
+    """A box obstacle inside a fluid block: its walls are sampled, the fluid it overlaps is
+    removed with a gap of dp/2, and the case runs."""
+    from wcsph import Simulation
+
+    obstacle = {"min": [0.2, 0.0], "max": [0.3, 0.2]}
+    case = validate(_case(obstacle=[obstacle], fluid=[{"min": [0.0, 0.0], "max": [0.5, 0.4]}]),
+                    src="c.toml")
+    without = Simulation(validate(_case(fluid=[{"min": [0.0, 0.0], "max": [0.5, 0.4]}]), src="c.toml"))
+    sim = Simulation(case)
+    x = sim.host(sim.fluid, "x")[0]
+    inside = (x[0] > 0.2 - 0.5 * 0.05) & (x[0] < 0.3 + 0.5 * 0.05) & (x[1] < 0.2 + 0.5 * 0.05)
+    assert not inside.any()
+    assert sim.fluid.n == without.fluid.n - 2 * 4  # a 2 x 4 block of the lattice is displaced
+    assert sim.walls.n == without.walls.n + 2 * 4  # the 0.1 x 0.2 box, full of wall particles
+    sim.run(progress=False)
+    assert sim.dropped == 0

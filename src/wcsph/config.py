@@ -45,6 +45,7 @@ SCHEMA = {
         "rho0": ("float", 1000.0, POS),
         "gravity": ("vec", None, None),
         "speed_of_sound": ("float", 0.0, NONNEG),
+        "kappa": ("float", 0.0, NONNEG),
         "gamma": ("float", 7.0, POS),
         "gravity_ramp_time": ("float", 0.0, NONNEG),
     }, {}, None),
@@ -156,7 +157,10 @@ def validate(data, src="<case>"):
     if dim not in (2, 3):
         _fail(src, "dim", f"must be 2 or 3, got {dim!r}")
     case = _validate(src, "", SCHEMA, data, dim)
-    if case["physics"]["gravity"] is None:
+    ph = case["physics"]
+    if ph["kappa"] > 0 and ph["speed_of_sound"] > 0:
+        _fail(src, "physics.kappa", "give kappa or speed_of_sound, not both (kappa = c0^2)")
+    if ph["gravity"] is None:
         case["physics"]["gravity"] = [0.0] * (dim - 1) + [-9.81]
     for kind in ("fluid", "obstacle"):
         for k, b in enumerate(case[kind]):
