@@ -19,8 +19,8 @@ for be in ("cpu", "cuda"):
                        ("precision", "float64")])
     sim = wcsph.Simulation(case, backend=be)
     sim.run(progress=False)
-    x, v, rho, p = sim.host(sim.fluid, "x", "v", "rho", "p")
-    o = np.lexsort(x)
+    x, v, rho, p, ids = sim.host(sim.fluid, "x", "v", "rho", "p", "id")
+    o = np.argsort(ids)
     res[be] = (x[:, o], v[:, o], rho[o], p[o], sim.fluid.n, sim.steps)
 c, g = res["cpu"], res["cuda"]
 print(json.dumps({"n": [c[4], g[4]], "steps": [c[5], g[5]],

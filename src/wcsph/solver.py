@@ -59,6 +59,7 @@ class Simulation:
         for name, kind in self.model.fluid_fields():
             self.fluid.add(name, kind, dtype, be)
         self.fluid["m"] = be.to_device(np.full(n, self.mass, dtype=dtype))
+        self.fluid["id"] = be.to_device(np.arange(n, dtype=np.int64))  # follows the particle
         self.walls = ParticleSet("walls", dim, {"x": be.to_device(wall_x.astype(dtype))})
         self.walls.add("v", "vector", dtype, be)
         for name, kind in self.model.wall_fields():
@@ -208,10 +209,10 @@ class Output:
 
     def write(self, failed=False):
         sim = self.sim
-        x, v, rho, p, m = sim.host(sim.fluid, "x", "v", "rho", "p", "m")
+        x, v, rho, p, m, ids = sim.host(sim.fluid, "x", "v", "rho", "p", "m", "id")
         if self.oc["vtk"]:
             name = "fluid_failed.vtu" if failed else f"fluid_{self.count:04d}.vtu"
-            vtk.write_points(self.out / name, x, {"rho": rho, "p": p, "v": v})
+            vtk.write_points(self.out / name, x, {"rho": rho, "p": p, "v": v, "id": ids})
             if not failed:
                 self.entries.append((sim.t, 0, name))
                 if sim.walls.n:
