@@ -1,9 +1,9 @@
 """CPU backend: Numba ``parallel=True`` loops over a cell list of particles physically
 reordered by cell (counting sort every step), so neighbours are read sequentially."""
-import math
-
 import numpy as np
 from numba import njit, prange
+
+from .walk import make_run_visitor
 
 
 @njit(parallel=True, fastmath=True, cache=True)
@@ -81,12 +81,14 @@ def _check(x, v, a):
 def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True):
     """The one CPU neighbour loop: for each particle i of set I, visit the particles of
     J1 (and J2 when ``use2``) within the support radius, fold them into an accumulator with
-    ``pair*``, then store it with ``finish``."""
+    ``pair*``, then store it with ``finish``. Per cell row the three x-adjacent cells are
+    one contiguous run of sorted particles."""
     oz_lo, oz_hi = (-1, 2) if dim == 3 else (0, 1)
+    visit1 = make_run_visitor(dim, pair1, zero)
+    visit2 = make_run_visitor(dim, pair2, zero)
 
     @njit(parallel=True, fastmath=True, cache=cache)
     def run(I, J1, J2, P, G):
-        rc2 = P.rc2
         for i in prange(I.x.shape[1]):
             c = I.cell[i]
             xi = I.x[0, i]
@@ -96,25 +98,9 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True):
             for oz in range(oz_lo, oz_hi):
                 for oy in range(-1, 2):
                     cc = c + oy * G.sy + oz * G.sz
-                    for j in range(J1.start[cc - 1], J1.start[cc + 2]):
-                        dx = xi - J1.x[0, j]
-                        dy = yi - J1.x[1, j]
-                        dz = xi * zero
-                        if dim == 3:
-                            dz = zi - J1.x[2, j]
-                        r2 = dx * dx + dy * dy + dz * dz
-                        if r2 < rc2:
-                            acc = pair1(i, j, dx, dy, dz, math.sqrt(r2), I, J1, P, acc)
+                    acc = visit1(i, xi, yi, zi, I, J1, J1.start[cc - 1], J1.start[cc + 2], P, acc)
                     if use2:
-                        for j in range(J2.start[cc - 1], J2.start[cc + 2]):
-                            dx = xi - J2.x[0, j]
-                            dy = yi - J2.x[1, j]
-                            dz = xi * zero
-                            if dim == 3:
-                                dz = zi - J2.x[2, j]
-                            r2 = dx * dx + dy * dy + dz * dz
-                            if r2 < rc2:
-                                acc = pair2(i, j, dx, dy, dz, math.sqrt(r2), I, J2, P, acc)
+                        acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - 1], J2.start[cc + 2], P, acc)
             finish(i, I, P, acc)
 
     return run

@@ -12,6 +12,8 @@ import os
 import numpy as np
 from numba import cuda
 
+from .walk import make_run_visitor
+
 THREADS = 128
 
 _cp = None
@@ -76,15 +78,16 @@ def _speeds(x, v, a, out):
 
 
 def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero):
-    """The one CUDA neighbour loop, the same walk as the CPU backend's."""
+    """The one CUDA neighbour loop, the same walk as the CPU backend's, one thread per i."""
     oz_lo, oz_hi = (-1, 2) if dim == 3 else (0, 1)
+    visit1 = make_run_visitor(dim, pair1, zero)
+    visit2 = make_run_visitor(dim, pair2, zero)
 
     @cuda.jit
     def run(I, J1, J2, P, G):
         i = cuda.grid(1)
         if i >= I.x.shape[1]:
             return
-        rc2 = P.rc2
         c = I.cell[i]
         xi = I.x[0, i]
         yi = I.x[1, i]
@@ -93,21 +96,9 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero):
         for oz in range(oz_lo, oz_hi):
             for oy in range(-1, 2):
                 cc = c + oy * G.sy + oz * G.sz
-                for j in range(J1.start[cc - 1], J1.start[cc + 2]):
-                    dx = xi - J1.x[0, j]
-                    dy = yi - J1.x[1, j]
-                    dz = zi - J1.x[2, j] if dim == 3 else zero
-                    r2 = dx * dx + dy * dy + dz * dz
-                    if r2 < rc2:
-                        acc = pair1(i, j, dx, dy, dz, math.sqrt(r2), I, J1, P, acc)
+                acc = visit1(i, xi, yi, zi, I, J1, J1.start[cc - 1], J1.start[cc + 2], P, acc)
                 if use2:
-                    for j in range(J2.start[cc - 1], J2.start[cc + 2]):
-                        dx = xi - J2.x[0, j]
-                        dy = yi - J2.x[1, j]
-                        dz = zi - J2.x[2, j] if dim == 3 else zero
-                        r2 = dx * dx + dy * dy + dz * dz
-                        if r2 < rc2:
-                            acc = pair2(i, j, dx, dy, dz, math.sqrt(r2), I, J2, P, acc)
+                    acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - 1], J2.start[cc + 2], P, acc)
         finish(i, I, P, acc)
 
     def launch(I, J1, J2, P, G):
