@@ -84,8 +84,8 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True):
     ``pair*``, then store it with ``finish``. Per cell row the three x-adjacent cells are
     one contiguous run of sorted particles."""
     oz_lo, oz_hi = (-1, 2) if dim == 3 else (0, 1)
-    visit1 = make_run_visitor(dim, pair1, zero)
-    visit2 = make_run_visitor(dim, pair2, zero)
+    visit1 = make_run_visitor(dim, pair1, zero, inline="always")
+    visit2 = make_run_visitor(dim, pair2, zero, inline="always")
 
     @njit(parallel=True, fastmath=True, cache=cache)
     def run(I, J1, J2, P, G):
