@@ -133,7 +133,9 @@ class CudaBackend:
     def to_host(self, a):
         return a.copy_to_host() if hasattr(a, "copy_to_host") else np.asarray(a)
 
-    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None):
+    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True):
+        """Same interface as the CPU backend; ``cache`` has no effect (kernels compile per
+        process)."""
         use2 = pair2 is not None
         return _make_pass_kernel(dim, init, pair1, pair2 if use2 else pair1, finish, use2,
                                  np.dtype(dtype).type(0))
