@@ -29,6 +29,34 @@ def _one_of(*opts):
 
 BLOCK = {"min": ("vec", REQUIRED, None), "max": ("vec", REQUIRED, None)}
 FLUID_BLOCK = dict(BLOCK, velocity=("vec", None, None))
+UNIT = (lambda v: 0 <= v <= 1, "must lie in [0, 1]")
+#: a 2D wall along a polyline; the fluid lies on the left of the direction of travel
+POLYGON = {"points": ("points", REQUIRED, None), "closed": ("bool", False, None)}
+#: pressure sensor at ``position``; water-level gauge along the vertical line from
+#: ``position`` up by ``length`` (0: to the top of the domain)
+PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, _one_of("pressure", "level")),
+         "position": ("vec", REQUIRED, None), "length": ("float", 0.0, NONNEG)}
+
+#: model keys that apply to one model only (a user setting them for the other model is told so)
+MODEL_KEYS = {
+    "classic": {"xsph", "wall_xsph", "clamp_negative_pressure", "wall_layers", "wall_volume"},
+    "bi": {"BCType", "DiffusiveTerm", "ViscousTerm", "EOS", "h", "searchRadius", "mass", "massBoundary",
+           "boundaryElementSize", "delta", "alpha", "dynamicViscosity", "scaleBVTCoef", "coefB", "eps",
+           "enableElasticBounce", "elasticBounce", "elasticFactor", "r_boxFactor",
+           "minimalDistanceFactor", "enableShifting"},
+}
+#: the runtime parameters of the WCSPH-BI spec, accepted flat in a ``[parameters]`` table
+#: under the spec's names, and where each one lives in the case
+SPEC_PARAMETERS = {
+    "dp": "dp", "h": "model.h", "searchRadius": "model.searchRadius", "mass": "model.mass",
+    "massBoundary": "model.massBoundary", "boundaryElementSize": "model.boundaryElementSize",
+    "delta": "model.delta", "alpha": "model.alpha", "dynamicViscosity": "model.dynamicViscosity",
+    "scaleBVTCoef": "model.scaleBVTCoef", "speedOfSound": "physics.speed_of_sound",
+    "coefB": "model.coefB", "rho0": "physics.rho0", "enableElasticBounce": "model.enableElasticBounce",
+    "elasticFactor": "model.elasticFactor", "r_boxFactor": "model.r_boxFactor",
+    "minimalDistanceFactor": "model.minimalDistanceFactor", "dtInit": "time.dtInit", "cfl": "time.cfl",
+    "dtMin": "time.dtMin", "gravity": "physics.gravity", "eps": "model.eps",
+}
 
 SCHEMA = {
     "name": ("str", "case", None),
@@ -41,31 +69,63 @@ SCHEMA = {
     "fluid": ([FLUID_BLOCK], REQUIRED, None),
     "tank": (dict(BLOCK, open_top=("bool", True, None)), None, None),
     "obstacle": ([BLOCK], [], None),
+    "polygon": ([POLYGON], [], None),
     "physics": ({
         "rho0": ("float", 1000.0, POS),
         "gravity": ("vec", None, None),
         "speed_of_sound": ("float", 0.0, NONNEG),
+        "p0": ("float", 0.0, None),
         "kappa": ("float", 0.0, NONNEG),
         "gamma": ("float", 7.0, POS),
         "gravity_ramp_time": ("float", 0.0, NONNEG),
     }, {}, None),
     "model": ({
-        "name": ("str", "classic", _one_of("classic")),
+        "name": ("str", "classic", _one_of("classic", "bi")),
         "kernel": ("str", "wendland", _one_of("wendland", "cubic_spline")),
         "smoothing_ratio": ("float", 2.0, POS),
-        "xsph": ("float", 0.1, (lambda v: 0 <= v <= 1, "must lie in [0, 1]")),
-        "wall_xsph": ("float", 0.0, (lambda v: 0 <= v <= 1, "must lie in [0, 1]")),
+        # classic WCSPH with Akinci boundary particles
+        "xsph": ("float", 0.1, UNIT),
+        "wall_xsph": ("float", 0.0, UNIT),
         "clamp_negative_pressure": ("bool", True, None),
         "wall_layers": ("int", 0, NONNEG),
         "wall_volume": ("str", "lattice", _one_of("lattice", "akinci")),
+        # WCSPH-BI: plug-ins and runtime parameters under the spec's names and defaults
+        "BCType": ("str", "BIConservative_numeric", _one_of("BIConservative_numeric", "BIConsistent_numeric")),
+        "DiffusiveTerm": ("str", "MolteniDiffusiveTerm",
+                          _one_of("None", "MolteniDiffusiveTerm", "FourtakasDiffusiveTerm")),
+        "ViscousTerm": ("str", "None", _one_of("None", "ArtificialViscosity", "PhysicalViscosity_MVT",
+                                               "PhysicalViscosity_MGVT")),
+        "EOS": ("str", "LinearizedColeEquationOfState",
+                _one_of("ColeEquationOfState", "LinearizedColeEquationOfState")),
+        "h": ("float", 0.0, NONNEG),
+        "searchRadius": ("float", 0.0, NONNEG),
+        "mass": ("float", 0.0, NONNEG),
+        "massBoundary": ("float", 0.0, NONNEG),
+        "boundaryElementSize": ("float", 0.0, NONNEG),
+        "delta": ("float", 0.1, NONNEG),
+        "alpha": ("float", 0.02, NONNEG),
+        "dynamicViscosity": ("float", 0.0, NONNEG),
+        "scaleBVTCoef": ("float", 1.0, NONNEG),
+        "coefB": ("float", 0.0, NONNEG),
+        "eps": ("float", 0.001, POS),
+        "enableElasticBounce": ("bool", True, None),
+        "elasticBounce": ("str", "conservative", _one_of("conservative", "epsilon")),
+        "elasticFactor": ("float", 1.0, UNIT),
+        "r_boxFactor": ("float", 1.5, POS),
+        "minimalDistanceFactor": ("float", 0.5, NONNEG),
+        "enableShifting": ("bool", True, None),
     }, {}, None),
     "time": ({
         "end": ("float", REQUIRED, POS),
+        "integrator": ("str", "", _one_of("", "symplectic_euler", "symplectic_verlet")),
         "cfl": ("float", 0.25, POS),
         "force_cfl": ("float", 0.25, POS),
         "dt": ("float", 0.0, NONNEG),
+        "dtInit": ("float", 0.0, NONNEG),
+        "dtMin": ("float", 0.0, NONNEG),
         "max_steps": ("int", 0, NONNEG),
     }, REQUIRED, None),
+    "probes": ([PROBE], [], None),
     "output": ({
         "interval": ("float", 0.0, NONNEG),
         "vtk": ("bool", True, None),
@@ -106,6 +166,10 @@ def _leaf(src, key, kind, value, dim):
         if dim is not None and len(value) != dim:
             _fail(src, key, f"expected {dim} components (dim = {dim}), got {len(value)}")
         return [float(v) for v in value]
+    if kind == "points":
+        if not isinstance(value, list) or len(value) < 2:
+            _fail(src, key, f"expected a list of at least two points, got {value!r}")
+        return [_leaf(src, f"{key}[{k}]", "vec", p, dim) for k, p in enumerate(value)]
     raise AssertionError(kind)
 
 
@@ -156,7 +220,20 @@ def validate(data, src="<case>"):
     dim = _leaf(src, "dim", "int", dim, None) if dim is not None else None
     if dim not in (2, 3):
         _fail(src, "dim", f"must be 2 or 3, got {dim!r}")
+    data = _lift_parameters(src, data)
     case = _validate(src, "", SCHEMA, data, dim)
+    given = data.get("model") if isinstance(data.get("model"), dict) else {}
+    for name, keys in MODEL_KEYS.items():
+        if name != case["model"]["name"]:
+            wrong = sorted(set(given) & keys - MODEL_KEYS[case["model"]["name"]])
+            if wrong:
+                _fail(src, f"model.{wrong[0]}", f"applies to model {name!r}, not to "
+                      f"model {case['model']['name']!r}")
+    if case["polygon"] and dim != 2:
+        _fail(src, "polygon", "polygon walls are 2D only; use tank and obstacle boxes in 3D")
+    for k, probe in enumerate(case["probes"]):
+        if sum(p["name"] == probe["name"] for p in case["probes"]) > 1:
+            _fail(src, f"probes[{k}].name", f"{probe['name']!r} is used by two probes")
     ph = case["physics"]
     if ph["kappa"] > 0 and ph["speed_of_sound"] > 0:
         _fail(src, "physics.kappa", "give kappa or speed_of_sound, not both (kappa = c0^2)")
@@ -174,6 +251,30 @@ def validate(data, src="<case>"):
         _check_box(src, "domain", d)
     case["_source"] = src
     return case
+
+
+def _lift_parameters(src, data):
+    """Move ``[parameters]`` (the spec's flat names) to where each lives in the case."""
+    params = data.get("parameters")
+    if params is None:
+        return data
+    if not isinstance(params, dict):
+        _fail(src, "parameters", f"expected a table, got {params!r}")
+    data = copy.deepcopy(data)
+    del data["parameters"]
+    for name, value in params.items():
+        if name not in SPEC_PARAMETERS:
+            _fail(src, f"parameters.{name}", "unknown parameter; known: " + ", ".join(sorted(SPEC_PARAMETERS)))
+        *path, last = SPEC_PARAMETERS[name].split(".")
+        node = data
+        for part in path:
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                _fail(src, part, f"expected a table, got {node!r}")
+        if last in node:
+            _fail(src, f"parameters.{name}", f"also given as {SPEC_PARAMETERS[name]}; give it once")
+        node[last] = value
+    return data
 
 
 def _check_box(src, key, box):
@@ -222,6 +323,17 @@ def parse_override(text):
 
 
 def apply_override(data, key, value, src="--set"):
+    params = data.get("parameters") if isinstance(data.get("parameters"), dict) else {}
+    if key.startswith("parameters."):
+        name = key.split(".", 1)[1]
+        if name not in SPEC_PARAMETERS:
+            raise CaseError(f"{src}: {key}: unknown parameter")
+        data.setdefault("parameters", {})[name] = value
+        return
+    for name, dotted in SPEC_PARAMETERS.items():
+        if dotted == key and name in params:  # the case gives it under the spec's name
+            params[name] = value
+            return
     parts = key.split(".")
     node, schema = data, SCHEMA
     for k, part in enumerate(parts):

@@ -1,8 +1,21 @@
-"""Particles from the case geometry: fluid blocks, tank walls and box obstacles.
+"""Particles from the case geometry: fluid blocks, tank walls, box obstacles, 2D polygons.
 
-Fluid particles sit on a lattice of spacing dp, dp/2 inside the block faces. Wall particles
-sit on the same lattice continued beyond the wall surface (the tank's inner faces, an
-obstacle's faces), ``layers`` deep, so fluid and wall particles start dp apart everywhere.
+Fluid particles sit on a lattice of spacing dp, dp/2 inside the block faces. Walls come in two
+kinds, after the model:
+
+* wall particles (classic model): the fluid lattice continued beyond the wall surface (the
+  tank's inner faces, an obstacle's faces), ``layers`` deep, so fluid and wall particles start
+  dp apart everywhere;
+* boundary elements (WCSPH-BI): the wall surface cut into segments (2D) or rectangular faces
+  (3D) of size about ``boundaryElementSize`` (default dp), each with its centre ``x``, size
+  ``elementSize`` (length or area) and unit normal ``n``.
+
+**Normal convention.** ``n`` points out of the fluid, into the wall: (0, -1) on a tank floor,
+(0, 1) on the top face of an obstacle box. This is the outward normal of the fluid domain in
+the boundary integrals of the WCSPH-BI spec (e.g. the wall part of grad p is
+sum_b (p_i + p_b) n_b W_ib S_b, which cancels the bulk sum for a constant pressure only with
+this orientation). A polygon wall has the fluid on the left of its direction of travel.
+
 The last axis is vertical.
 """
 import math
@@ -21,6 +34,12 @@ def lattice(lo, hi, dp):
         axes.append(a + dp * (0.5 + np.arange(n)))
     mesh = np.meshgrid(*axes, indexing="ij")
     return np.stack([m.ravel() for m in mesh]) if axes else np.zeros((0, 0))
+
+
+def smoothing_length(case):
+    """h: ``model.h`` when given (WCSPH-BI), else ``smoothing_ratio`` dp."""
+    m = case["model"]
+    return m["h"] if m["name"] == "bi" and m["h"] > 0 else m["smoothing_ratio"] * case["dp"]
 
 
 def wall_layers(case):
@@ -60,18 +79,100 @@ def obstacle_particles(box, dp, layers):
     return pts[:, ~_inside(pts, lo + layers * dp, hi - layers * dp)]
 
 
-def build(case):
-    """Fluid positions and velocities, wall positions, and the domain box of ``case``."""
-    src, dp, dim = case["_source"], case["dp"], case["dim"]
-    layers = wall_layers(case)
-    walls = []
-    if case["tank"] is not None:
-        walls.append(tank_particles(case["tank"], dp, layers))
-    for box in case["obstacle"]:
-        walls.append(obstacle_particles(box, dp, layers))
-    walls = np.concatenate(walls, axis=1) if walls else np.zeros((dim, 0))
+def _tiles(lo, hi, size):
+    """Centres and sizes of a box face [lo, hi] (one axis flat) cut into near-square tiles of
+    edge about ``size``."""
+    axes, widths = [], []
+    for a, b in zip(lo, hi):
+        if b == a:
+            axes.append(np.array([a]))
+            widths.append(1.0)
+            continue
+        k = max(1, int(round((b - a) / size)))
+        w = (b - a) / k
+        axes.append(a + w * (0.5 + np.arange(k)))
+        widths.append(w)
+    mesh = np.meshgrid(*axes, indexing="ij")
+    return np.stack([m.ravel() for m in mesh]), float(np.prod(widths))
 
-    xs, vs = [], []
+
+def box_elements(box, size, fluid_inside, skip_top=False):
+    """Boundary elements on the faces of ``box``: its inside is fluid (a tank) or solid (an
+    obstacle). Returns x (dim, N), n (dim, N), S (N,)."""
+    lo = np.asarray(box["min"], dtype=float)
+    hi = np.asarray(box["max"], dtype=float)
+    dim = lo.size
+    xs, ns, ss = [], [], []
+    for a in range(dim):
+        for side, sign in ((lo, -1.0), (hi, 1.0)):
+            if skip_top and a == dim - 1 and sign > 0:
+                continue
+            f_lo, f_hi = lo.copy(), hi.copy()
+            f_lo[a] = f_hi[a] = side[a]
+            x, area = _tiles(f_lo, f_hi, size)
+            n = np.zeros_like(x)
+            n[a] = sign if fluid_inside else -sign  # out of the fluid
+            xs.append(x)
+            ns.append(n)
+            ss.append(np.full(x.shape[1], area))
+    return np.concatenate(xs, axis=1), np.concatenate(ns, axis=1), np.concatenate(ss)
+
+
+def polygon_elements(points, closed, size):
+    """Segments of a 2D polyline, fluid on the left of the direction of travel, so that
+    n = (dy, -dx)/|d| points out of the fluid."""
+    pts = np.asarray(points, dtype=float)
+    if closed:
+        pts = np.vstack([pts, pts[:1]])
+    xs, ns, ss = [], [], []
+    for p, q in zip(pts[:-1], pts[1:]):
+        d = q - p
+        length = float(np.hypot(*d))
+        if length == 0:
+            continue
+        k = max(1, int(round(length / size)))
+        t = (0.5 + np.arange(k)) / k
+        xs.append(p[:, None] + d[:, None] * t)
+        ns.append(np.repeat(np.array([d[1], -d[0]])[:, None] / length, k, axis=1))
+        ss.append(np.full(k, length / k))
+    return np.concatenate(xs, axis=1), np.concatenate(ns, axis=1), np.concatenate(ss)
+
+
+def boundary_elements(case, size):
+    """All boundary elements of ``case``: x, n, elementSize."""
+    dim = case["dim"]
+    parts = []
+    if case["tank"] is not None:
+        parts.append(box_elements(case["tank"], size, True, case["tank"]["open_top"]))
+    for box in case["obstacle"]:
+        parts.append(box_elements(box, size, False))
+    for poly in case["polygon"]:
+        parts.append(polygon_elements(poly["points"], poly["closed"], size))
+    if not parts:
+        return np.zeros((dim, 0)), np.zeros((dim, 0)), np.zeros(0)
+    return tuple(np.concatenate(p, axis=-1) for p in zip(*parts))
+
+
+def build(case):
+    """The fluid (a dict: ``x``, ``v``, and ``top``, the top of each particle's block), the walls (a dict: ``x``, and for boundary elements
+    ``n`` and ``elementSize``), and the domain box of ``case``."""
+    src, dp, dim = case["_source"], case["dp"], case["dim"]
+    if case["model"]["name"] == "bi":
+        x, n, size = boundary_elements(case, case["model"]["boundaryElementSize"] or dp)
+        wall_set = {"x": x, "n": n, "elementSize": size}
+    else:
+        if case["polygon"]:
+            raise CaseError(f"{src}: polygon: polygon walls need boundary elements (model.name = \"bi\")")
+        layers = wall_layers(case)
+        parts = []
+        if case["tank"] is not None:
+            parts.append(tank_particles(case["tank"], dp, layers))
+        for box in case["obstacle"]:
+            parts.append(obstacle_particles(box, dp, layers))
+        wall_set = {"x": np.concatenate(parts, axis=1) if parts else np.zeros((dim, 0))}
+    walls = wall_set["x"]
+
+    xs, vs, tops = [], [], []
     for k, block in enumerate(case["fluid"]):
         if case["tank"] is not None:
             t = case["tank"]
@@ -89,11 +190,12 @@ def build(case):
         v = block["velocity"] or [0.0] * dim
         xs.append(x)
         vs.append(np.repeat(np.asarray(v, dtype=float)[:, None], x.shape[1], axis=1))
+        tops.append(np.full(x.shape[1], block["max"][-1]))
     fluid_x = np.concatenate(xs, axis=1)
     fluid_v = np.concatenate(vs, axis=1)
 
     d = case["domain"]
-    h = case["model"]["smoothing_ratio"] * dp
+    h = smoothing_length(case)
     if d is not None and d["min"] is not None:
         lo, hi = np.asarray(d["min"]), np.asarray(d["max"])
         outside = ~np.all((fluid_x >= lo[:, None]) & (fluid_x <= hi[:, None]), axis=0)
@@ -111,7 +213,8 @@ def build(case):
         lo = allx.min(axis=1) - SUPPORT * h
         hi = allx.max(axis=1) + SUPPORT * h
         hi[-1] += hi[-1] - lo[-1]  # head room for splashes
-    return fluid_x, fluid_v, walls, lo, hi
+    fluid = {"x": fluid_x, "v": fluid_v, "top": np.concatenate(tops)}
+    return fluid, wall_set, lo, hi
 
 
 def lattice_density_sum(kernel_w_np, dim, dp, h):

@@ -10,7 +10,7 @@ from . import geometry
 from .backends import get_backend
 from .config import CaseError
 from .grid import Grid
-from .integrators import INTEGRATORS
+from .integrators import INTEGRATORS, StateView
 from .io import probes, vtk
 from .kernels import SUPPORT, kernel_numpy, kernel_params
 from .models import get_model
@@ -33,10 +33,17 @@ class Simulation:
         self.backend = be = get_backend(backend or case["backend"])
         self.dp = dp = case["dp"]
         m = case["model"]
-        self.h = h = m["smoothing_ratio"] * dp
-        fluid_x, fluid_v, wall_x, lo, hi = geometry.build(case)
+        self.h = h = geometry.smoothing_length(case)
+        fluid0, wall0, lo, hi = geometry.build(case)
+        fluid_x, fluid_v = fluid0["x"], fluid0["v"]
         self.domain = (lo, hi)
-        self.grid = Grid.covering(lo, hi, SUPPORT * h)
+        rc = SUPPORT * h
+        if m["name"] == "bi" and m["searchRadius"] > 0:
+            if m["searchRadius"] < rc * (1 - 1e-9):
+                raise CaseError(f"{case['_source']}: model.searchRadius: {m['searchRadius']} is smaller than "
+                                f"the kernel support 2h = {rc:g}")
+            rc = m["searchRadius"]
+        self.grid = Grid.covering(lo, hi, rc)
         self.G = self.grid.view()
 
         ph = case["physics"]
@@ -46,27 +53,32 @@ class Simulation:
         self.c0 = (math.sqrt(ph["kappa"]) if ph["kappa"] > 0 else ph["speed_of_sound"]) \
             or self._default_sound_speed(fluid_x, fluid_v)
         w_np, _ = kernel_numpy(m["kernel"], dim, h)
-        self.mass = self.rho0 / geometry.lattice_density_sum(w_np, dim, dp, h)
 
-        self.model = get_model(m["name"])(case, be)
-        self.advance = be.make_map(INTEGRATORS["symplectic_euler"](dim))
-        kp = dict(kernel_params(m["kernel"], dim, h), rc=SUPPORT * h)
-        self.P = self.model.params(kp, self.rho0, self.gamma, self.c0, self.gravity, 1.0)
+        self.model = model = get_model(m["name"])(case, be)
+        self.mass = model.particle_mass(dp, h, self.rho0, w_np)
+        scheme = case["time"]["integrator"] or model.default_integrator
+        self.integrator = INTEGRATORS[scheme](be, dim, model.continuity, dtype)
+        kp = dict(kernel_params(m["kernel"], dim, h), rc=rc)
+        self.P = model.params(kp, self.rho0, self.gamma, self.c0, self.gravity, 1.0)
 
         n = fluid_x.shape[1]
+        rho = model.initial_density(fluid_x, fluid0["top"], self.rho0, self.c0, self.gamma, self.gravity,
+                                    ph["p0"])
         self.fluid = ParticleSet("fluid", dim, {"x": be.to_device(fluid_x.astype(dtype)),
                                                "v": be.to_device(fluid_v.astype(dtype))})
-        for name, kind in self.model.fluid_fields():
+        for name, kind in list(model.fluid_fields()) + list(self.integrator.fields):
             self.fluid.add(name, kind, dtype, be)
+        self.fluid["rho"] = be.to_device(rho.astype(dtype))
         self.fluid["m"] = be.to_device(np.full(n, self.mass, dtype=dtype))
         self.fluid["id"] = be.to_device(np.arange(n, dtype=np.int64))  # follows the particle
-        self.walls = ParticleSet("walls", dim, {"x": be.to_device(wall_x.astype(dtype))})
+        self.walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
         self.walls.add("v", "vector", dtype, be)
-        for name, kind in self.model.wall_fields():
+        for name, kind in model.wall_fields():
             self.walls.add(name, kind, dtype, be)
         be.sort(self.walls, self.grid)
         be.sort(self.fluid, self.grid)
-        self.model.initialize(self.fluid, self.walls, self.P, self.G, self.mass)
+        model.initialize(self.fluid, self.walls, self.P, self.G, self.mass)
+        self.probes = probes.PointProbes(self)
 
         self.t = 0.0
         self.steps = 0
@@ -97,21 +109,46 @@ class Simulation:
         return 0.5 * (math.sin((t / td - 0.5) * math.pi) + 1.0)
 
     def time_step(self):
-        """CFL (sound speed plus flow speed) and force conditions, Monaghan (1992)."""
+        """Constant ``time.dt``, else the least of the CFL (sound speed plus flow speed),
+        force (Monaghan 1992) and viscous (Morris et al. 1997) conditions; ``dtInit`` for the
+        first step when given. Falling below ``dtMin`` stops the run."""
         tc = self.case["time"]
         if tc["dt"] > 0:
             return tc["dt"]
+        if self.steps == 0 and tc["dtInit"] > 0:
+            return tc["dtInit"]
         dt = tc["cfl"] * self.h / (self.c0 + self.vmax)
         if self.amax > 0:
             dt = min(dt, tc["force_cfl"] * math.sqrt(self.h / self.amax))
+        nu = self.model.kinematic_viscosity(self.rho0)
+        if nu > 0:
+            dt = min(dt, 0.125 * self.h * self.h / nu)
+        if dt < tc["dtMin"]:
+            raise SimulationError(f"time step {dt:.3g} s fell below time.dtMin = {tc['dtMin']:.3g} s at "
+                                  f"t = {self.t:.6g} s (|v|max = {self.vmax:.3g} m/s, |a|max = {self.amax:.3g} m/s^2)")
         return dt
 
+    def state(self):
+        """The fluid as the integrators see it (``StateView``); rho stands in for the fields
+        a model without a continuity equation lacks."""
+        f = self.fluid
+        rho = f["rho"]
+        return StateView(f["x"], f["v"], f["dvdt"], rho, f.arrays.get("drhodt", rho), f.arrays.get("x_old", f["x"]),
+                         f.arrays.get("v_old", f["v"]), f.arrays.get("rho_old", rho))
+
+    def evaluate(self, P):
+        """The model's derivatives at the current state (called by the integrator)."""
+        self.model.derivatives(self.fluid, self.walls, P, self.G)
+
     def step(self, dt):
+        """One time step: sort by cell (once: the neighbour cells of the step's first state
+        serve its later stages too, which moves particles by far less than a cell), the
+        integrator's stages, then the model's wall corrections."""
         be = self.backend
         self.dropped += be.sort(self.fluid, self.grid)
         self.P = self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t))
-        self.model.derivatives(self.fluid, self.walls, self.P, self.G)
-        self.advance(self.fluid.view(self.model.fluid_view), self.P)
+        self.integrator.step(self, self.P)
+        self.model.correct(self.fluid, self.walls, self.P, self.G)
         self.t += dt
         self.steps += 1
         vmax2, amax2, bad = be.check(self.fluid)
@@ -202,13 +239,16 @@ class Output:
         cols = ["time", "step", "dt", "n_fluid", "kinetic_energy", "potential_energy"]
         if oc["surge_front"]:
             cols.append("surge_front")
+        cols += sim.probes.columns()
         self.probes = probes.ProbeWriter(out / "probes.csv", cols)
         if oc["vtk"] and sim.walls.n:
+            names = [k for k in ("n", "elementSize", "psi") if k in sim.walls.arrays]
             vtk.write_points(out / "walls.vtu", sim.host(sim.walls, "x")[0],
-                             {"psi": sim.host(sim.walls, "psi")[0]})
+                             dict(zip(names, sim.host(sim.walls, *names))))
 
     def write(self, failed=False):
         sim = self.sim
+        sim.model.refresh(sim.fluid, sim.P)
         x, v, rho, p, m, ids = sim.host(sim.fluid, "x", "v", "rho", "p", "m", "id")
         if self.oc["vtk"]:
             name = "fluid_failed.vtu" if failed else f"fluid_{self.count:04d}.vtu"
@@ -227,6 +267,7 @@ class Output:
                "n_fluid": sim.fluid.n, "kinetic_energy": ek, "potential_energy": ep}
         if self.oc["surge_front"]:
             row["surge_front"] = probes.surge_front(x, sim.dp)
+        row.update(sim.probes.sample())
         self.probes.write(row)
         self.count += 1
 

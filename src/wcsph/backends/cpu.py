@@ -162,5 +162,5 @@ class CpuBackend:
         return dropped
 
     def check(self, pset):
-        vmax2, amax2, bad = _check(pset["x"], pset["v"], pset["a"])
+        vmax2, amax2, bad = _check(pset["x"], pset["v"], pset["dvdt"])
         return float(vmax2), float(amax2), int(bad)

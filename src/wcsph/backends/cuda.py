@@ -187,7 +187,7 @@ class CudaBackend:
         if n == 0:
             return 0.0, 0.0, 0
         out = cuda.device_array((3, n), dtype=np.float64)
-        _speeds[_blocks(n), THREADS](pset["x"], pset["v"], pset["a"], out)
+        _speeds[_blocks(n), THREADS](pset["x"], pset["v"], pset["dvdt"], out)
         if _cp is not None:
             o = _cp.asarray(out)
             r = _cp.stack([o[0].max(), o[1].max(), o[2].sum()]).get()

@@ -6,4 +6,8 @@ def get_model(name):
         from .classic import ClassicWCSPH
 
         return ClassicWCSPH
+    if name == "bi":
+        from .bi import WCSPHBI
+
+        return WCSPHBI
     raise ValueError(f"unknown model {name!r}")

@@ -17,7 +17,7 @@ from ..physics.eos import make_tait
 from ..physics.pressure import make_akinci_pressure, make_symmetric_pressure
 from ..physics.viscosity import make_xsph, make_xsph_wall
 
-FluidView = namedtuple("FluidView", "x v a rho p pr vol m cell start")
+FluidView = namedtuple("FluidView", "x v dvdt rho p pr vol m cell start")
 WallView = namedtuple("WallView", "x v psi cell start")
 Params = namedtuple("Params", "rc2 h_inv w_norm g_norm rho0 rho0_inv eos_b gamma gx gy gz dt xsph_dt wall_xsph_dt")
 
@@ -48,10 +48,10 @@ def _stores(ctx, eos):
 
     @register_jitable
     def store_acceleration(i, I, P, acc):
-        I.a[0, i] = acc[0] + P.gx
-        I.a[1, i] = acc[1] + P.gy
+        I.dvdt[0, i] = acc[0] + P.gx
+        I.dvdt[1, i] = acc[1] + P.gy
         if dim == 3:
-            I.a[2, i] = acc[2] + P.gz
+            I.dvdt[2, i] = acc[2] + P.gz
 
     return init_scalar, init_vector, store_psi, store_density, store_acceleration
 
@@ -60,6 +60,8 @@ class ClassicWCSPH:
     name = "classic"
     fluid_view = FluidView
     wall_view = WallView
+    continuity = False  # density by summation: the integrator advances x and v only
+    default_integrator = "symplectic_euler"
 
     def __init__(self, case, backend):
         self.case = case
@@ -85,11 +87,29 @@ class ClassicWCSPH:
 
     def fluid_fields(self):
         """Per-particle fields the model needs beyond x, v: (name, 'scalar'|'vector')."""
-        return [("a", "vector"), ("rho", "scalar"), ("p", "scalar"), ("pr", "scalar"), ("vol", "scalar"),
+        return [("dvdt", "vector"), ("rho", "scalar"), ("p", "scalar"), ("pr", "scalar"), ("vol", "scalar"),
                 ("m", "scalar")]
 
     def wall_fields(self):
         return [("psi", "scalar")]
+
+    def particle_mass(self, dp, h, rho0, kernel_w):
+        """The mass that makes the summation density of the initial lattice exactly rho0."""
+        from ..geometry import lattice_density_sum
+
+        return rho0 / lattice_density_sum(kernel_w, self.dim, dp, h)
+
+    def kinematic_viscosity(self, rho0):
+        return 0.0
+
+    def initial_density(self, x, tops, rho0, c0, gamma, gravity, p0):
+        return np.full(x.shape[1], rho0)  # replaced by the summation at the first evaluation
+
+    def refresh(self, fluid, P):
+        """p is that of the step's density pass."""
+
+    def correct(self, fluid, walls, P, G):
+        """No wall corrections: the wall particles' pressure keeps the fluid out."""
 
     def params(self, kernel, rho0, gamma, c0, gravity, dt):
         d, m = self.dtype, self.case["model"]

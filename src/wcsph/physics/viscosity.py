@@ -1,6 +1,8 @@
-"""Viscous terms. The accumulator is the acceleration (ax, ay, az)."""
-import numpy as np
+"""Viscous terms. Classic model: the accumulator is the acceleration (ax, ay, az). WCSPH-BI:
+the accumulator of ``physics.interaction`` (force density slots)."""
 from numba.extending import register_jitable
+
+from .interaction import add_force
 
 
 def make_xsph(ctx):
@@ -35,3 +37,89 @@ def make_xsph_wall(ctx):
                 acc[2] + fz)
 
     return term
+
+
+# ------------------------------------------------------------------ WCSPH-BI (force density)
+# Each term adds rho_i times its acceleration to the force slot; the coefficient comes in
+# ``P.visc`` (bulk) and ``P.wall_visc`` (walls, times scaleBVTCoef), set by the model:
+#   MGVT: 2 (n + 2) mu,  MVT: 2 mu,  artificial: alpha h c0.
+# psi_ij = v_ij . x_ij / (r^2 + eps h^2) is shared by the bulk terms.
+
+def make_artificial_viscosity(ctx):
+    """Monaghan (1992) artificial viscosity, active between approaching particles:
+    Dv_i/Dt += alpha h c0 sum_j m_j psi_ij / rho_bar_ij grad_i W_ij, rho_bar the mean density."""
+    grad, dim, zero, two = ctx.grad, ctx.dim, ctx.zero, ctx.dtype(2)
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        vz = (I.v[2, i] - J.v[2, j]) * dz if dim == 3 else zero
+        vx = (I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz
+        if vx >= zero:
+            return acc
+        rho_i, rho_j = I.rho[i], J.rho[j]
+        f = P.visc * two * rho_i * rho_j / (rho_i + rho_j) * vx / (r * r + P.eps_h2) * grad(r, P) * J.vol[j]
+        return add_force(acc, f * dx, f * dy, f * dz)
+
+    return term
+
+
+def make_mgvt(ctx):
+    """Monaghan & Gingold (1983) form of mu <Lap v + 2 grad div v>:
+    2 (n + 2) mu sum_j psi_ij grad_i W_ij V_j (Monaghan 2005, sec. 6.2); the force is along
+    x_ij, so fluid pairs conserve angular momentum."""
+    grad, dim, zero = ctx.grad, ctx.dim, ctx.zero
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        vz = (I.v[2, i] - J.v[2, j]) * dz if dim == 3 else zero
+        vx = (I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz
+        f = P.visc * vx / (r * r + P.eps_h2) * grad(r, P) * J.vol[j]
+        return add_force(acc, f * dx, f * dy, f * dz)
+
+    return term
+
+
+def make_mvt(ctx):
+    """Morris, Fox & Zhu (1997) Laplacian, mu <Lap v> = 2 mu sum_j V_j v_ij
+    (x_ij . grad_i W_ij) / (r^2 + eps h^2). (The spec's table prints v_ij . x_ij grad W, the
+    Monaghan-Gingold shape; Morris's operator is the one above.)"""
+    grad, dim, zero = ctx.grad, ctx.dim, ctx.zero
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        r2 = r * r
+        f = P.visc * r2 * grad(r, P) / (r2 + P.eps_h2) * J.vol[j]
+        fz = f * (I.v[2, i] - J.v[2, j]) if dim == 3 else zero
+        return add_force(acc, f * (I.v[0, i] - J.v[0, j]), f * (I.v[1, i] - J.v[1, j]), fz)
+
+    return term
+
+
+def make_boundary_viscosity(ctx, artificial):
+    """No-slip wall term of the WCSPH-BI spec (MVT and MGVT rows):
+    c sum_b (v_i - v_b) / ((x_i - x_b) . n_b) W_ib S_b, with c = ``P.wall_visc`` and the
+    denominator regularised as d / (d^2 + eps h^2). d < 0 on the fluid side (n_b points out of
+    the fluid), so the term opposes the slip. For artificial viscosity the same term with
+    the equivalent viscosity nu = alpha h c0 / (2 (n + 2)) (Monaghan 2005), times rho_i, acting
+    only while the particle approaches the wall."""
+    w, dim, zero = ctx.w, ctx.dim, ctx.zero
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        ux = I.v[0, i] - J.v[0, j]
+        uy = I.v[1, i] - J.v[1, j]
+        uz = I.v[2, i] - J.v[2, j] if dim == 3 else zero
+        nz = J.n[2, j] if dim == 3 else zero
+        if artificial and ux * J.n[0, j] + uy * J.n[1, j] + uz * nz <= zero:
+            return acc
+        d = dx * J.n[0, j] + dy * J.n[1, j] + dz * nz
+        f = P.wall_visc * d / (d * d + P.eps_h2) * w(r, P) * J.elementSize[j]
+        if artificial:
+            f *= I.rho[i]
+        return add_force(acc, f * ux, f * uy, f * uz)
+
+    return term
+
+
+VISCOUS_TERMS = {"ArtificialViscosity": make_artificial_viscosity, "PhysicalViscosity_MVT": make_mvt,
+                 "PhysicalViscosity_MGVT": make_mgvt}

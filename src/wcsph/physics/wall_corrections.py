@@ -1,0 +1,48 @@
+"""Corrections that keep fluid particles off boundary elements, applied after a time step
+(after Cercos-Pita 2015, AQUAgpusph). The pass visits the elements b near fluid particle i
+with the accumulator (vx, vy, vz, sx, sy, sz): i's velocity and its position shift so far,
+so that a correction made for one element is seen by the next (a particle near a flat wall
+is bounced or shifted once, not once per element).
+
+An element acts on a particle whose projection on the element's plane lies within
+r_box = ``r_boxFactor`` dp of its centre, and which is at most the minimal distance
+h_fac dp (``minimalDistanceFactor``) behind the plane; its distance from the wall is
+dist = -(x_i - x_b) . n_b (n_b points out of the fluid).
+"""
+from numba.extending import register_jitable
+
+
+def make_wall_corrections(ctx, bounce, epsilon_bounce, shift):
+    """``bounce``: elastic bounce. A particle approaching the element (v_n = (v_i - v_b) . n_b
+    > 0) that would come closer than h_fac dp within the next step (dist - dt v_n <= h_fac dp)
+    has its normal velocity reflected, v_i -= (1 + e) v_n n_b: e = 1 for the conservative
+    bounce (kinetic energy kept), e = ``elasticFactor`` for the epsilon bounce.
+    ``shift``: near-boundary volume-correction particle shifting (NBVC-PST): a particle
+    closer than h_fac dp (with h_fac = 1/2 the particle's volume, a cell of side dp, would
+    reach into the wall) is moved along n_b back to that distance."""
+    dim, zero, one = ctx.dim, ctx.zero, ctx.dtype(1)
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        vx, vy, vz, sx, sy, sz = acc
+        rx, ry = dx + sx, dy + sy
+        rz = dz + sz if dim == 3 else zero
+        nx, ny = J.n[0, j], J.n[1, j]
+        nz = J.n[2, j] if dim == 3 else zero
+        d = rx * nx + ry * ny + rz * nz
+        dist = -d
+        if dist < -P.min_dist or rx * rx + ry * ry + rz * rz - d * d >= P.r_box2:
+            return acc
+        if bounce:
+            vbz = J.v[2, j] if dim == 3 else zero
+            vn = (vx - J.v[0, j]) * nx + (vy - J.v[1, j]) * ny + (vz - vbz) * nz
+            if vn > zero and dist - P.dt * vn <= P.min_dist:
+                e = P.elastic if epsilon_bounce else one
+                k = (one + e) * vn
+                vx, vy, vz = vx - k * nx, vy - k * ny, vz - k * nz
+        if shift and dist < P.min_dist:
+            s = P.min_dist - dist
+            sx, sy, sz = sx - s * nx, sy - s * ny, sz - s * nz
+        return (vx, vy, vz, sx, sy, sz)
+
+    return term
