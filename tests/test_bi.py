@@ -1,0 +1,239 @@
+"""WCSPH-BI: boundary elements, the four schemes against references, conservation, probes,
+and the spec's parameter names."""
+import copy
+import csv
+
+import numpy as np
+import pytest
+
+import wcsph
+from wcsph import geometry
+from wcsph.config import CaseError, load, validate
+from wcsph.kernels import kernel_numpy
+
+SCHEMES = [(bc, visc) for bc in ("BIConservative_numeric", "BIConsistent_numeric")
+           for visc in ("None", "PhysicalViscosity_MGVT")]
+
+
+# ------------------------------------------------------------------ boundary elements
+def test_element_normals_point_out_of_the_fluid():
+    case = validate({"dim": 2, "dp": 0.1, "model": {"name": "bi"}, "time": {"end": 1.0},
+                     "fluid": [{"min": [0.0, 0.0], "max": [0.5, 0.5]}],
+                     "tank": {"min": [0.0, 0.0], "max": [2.0, 1.0]},
+                     "obstacle": [{"min": [1.0, 0.0], "max": [1.4, 0.2]}]})
+    x, n, s = geometry.boundary_elements(case, 0.1)
+    assert np.allclose(np.linalg.norm(n, axis=0), 1)
+    floor = (x[1] == 0) & (x[0] < 1.0)
+    assert floor.any() and np.allclose(n[:, floor].T, [0, -1])          # tank floor
+    assert np.allclose(n[:, x[0] == 0].T, [-1, 0])                      # left wall
+    assert np.allclose(n[:, x[0] == 2.0].T, [1, 0])                     # right wall
+    top = (x[1] == 0.2) & (x[0] > 1.0) & (x[0] < 1.4)
+    assert top.any() and np.allclose(n[:, top].T, [0, -1])              # obstacle top: fluid above
+    assert np.allclose(n[:, (x[0] == 1.0) & (x[1] > 0)].T, [1, 0])      # obstacle's left face
+    # total length: floor 2, walls 2 x 1 (open top), obstacle 0.4 + 2 x 0.2 + 0.4 (its underside)
+    assert s.sum() == pytest.approx(2 + 2 + 1.2)
+
+
+def test_polygon_walls_have_the_fluid_on_their_left():
+    x, n, s = geometry.polygon_elements([[0, 0], [1, 0], [1, 1]], False, 0.25)
+    assert s.sum() == pytest.approx(2.0) and x.shape[1] == 8
+    assert np.allclose(n[:, :4].T, [0, -1]) and np.allclose(n[:, 4:].T, [1, 0])
+
+
+def _at_rest(bc, flip=False):
+    """Fluid at rest at uniform pressure p0 = 1000 Pa with density rho0, no gravity: every
+    acceleration should vanish, including next to the walls."""
+    case = validate({"dim": 2, "dp": 0.02, "precision": "float64", "time": {"end": 1.0},
+                     "physics": {"gravity": [0.0, 0.0], "speed_of_sound": 10.0, "p0": 1000.0},
+                     "model": {"name": "bi", "BCType": bc, "DiffusiveTerm": "None"},
+                     "fluid": [{"min": [0.0, 0.0], "max": [0.4, 0.4]}],
+                     "tank": {"min": [0.0, 0.0], "max": [0.4, 0.4], "open_top": False}})
+    sim = wcsph.Simulation(case)
+    if flip:
+        sim.walls["n"] = -sim.walls["n"]
+    sim.evaluate(sim.model.update(sim.P, 1e-4, [0.0, 0.0]))
+    a, = sim.host(sim.fluid, "dvdt")
+    return np.abs(a).max()
+
+
+@pytest.mark.parametrize("bc", ["BIConservative_numeric", "BIConsistent_numeric"])
+def test_normal_convention_balances_a_uniform_pressure(bc):
+    """The boundary integral must cancel the truncated bulk sum of a uniform pressure: with
+    the normals as built the largest acceleration is a small quadrature remainder; with
+    the normals flipped it doubles the wall force instead (and this test fails)."""
+    p0_over_rho_h = 1000.0 / 1000.0 / 0.04  # the scale of a one-sided pressure force
+    right, wrong = _at_rest(bc), _at_rest(bc, flip=True)
+    assert right < 0.05 * p0_over_rho_h, right
+    assert wrong > 0.5 * p0_over_rho_h, wrong
+
+
+# ------------------------------------------------------------------ hydrostatic tank
+@pytest.mark.parametrize("bc,visc", SCHEMES)
+def test_hydrostatic_tank_each_scheme(bc, visc, tmp_path):
+    """H = 0.5 m = 25 dp, 2 s: the interior pressure profile, fitted and extrapolated to the
+    floor and averaged over the last 0.5 s (acoustic oscillations of the column are undamped
+    in the inviscid schemes), is rho0 g H within 2 %; no particle is behind a wall."""
+    case = load("hydrostatic_2d_bi", [("model.BCType", bc), ("model.ViscousTerm", visc),
+                                      ("model.dynamicViscosity", 1e-3), ("output.vtk", False)])
+    sim = wcsph.Simulation(case)
+    H, rho0, g = 0.5, 1000.0, 9.81
+    bottom = []
+    for t in np.arange(1.5, 2.0 + 1e-9, 0.05):
+        sim.run(end_time=t, progress=False)
+        x, p = sim.host(sim.fluid, "x", "p")
+        sel = (np.abs(x[0] - 0.5) < 0.3) & (x[1] > 0.1 * H) & (x[1] < 0.8 * H)
+        bottom.append(np.polyfit(x[1][sel], p[sel], 1)[1])
+        assert x[0].min() > 0 and x[0].max() < 1 and x[1].min() > 0
+    assert np.mean(bottom) == pytest.approx(rho0 * g * H, rel=0.02), np.array(bottom) / (rho0 * g * H)
+    assert sim.dropped == 0
+
+
+# ------------------------------------------------------------------ dam break
+def _martin_moyce(validation_dir):
+    with open(validation_dir / "martin_moyce_1952_surge_front.csv") as f:
+        rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
+    return np.array([[float(r["T"]), float(r["Z"])] for r in rows])
+
+
+def test_dam_break_surge_front_martin_moyce(validation_dir, tmp_path):
+    """Column a = 0.25 m, 2a high, 50 particles across, consistent scheme with artificial
+    viscosity alpha = 0.1 (DualSPHysics' dam-break value) and wall term x5: the front within
+    10 % of every Martin & Moyce (1952) point with T = t sqrt(2g/a) <= 2.5."""
+    a, g = 0.25, 9.81
+    scale = np.sqrt(2 * g / a)
+    ref = _martin_moyce(validation_dir)
+    ref = ref[ref[:, 0] <= 2.5]
+    case = {"dim": 2, "dp": a / 50, "fluid": [{"min": [0.0, 0.0], "max": [a, 2 * a]}],
+            "tank": {"min": [0.0, 0.0], "max": [4 * a, 3 * a]}, "time": {"end": 2.5 / scale},
+            "model": {"name": "bi", "BCType": "BIConsistent_numeric", "ViscousTerm": "ArtificialViscosity",
+                      "alpha": 0.1, "scaleBVTCoef": 5.0},
+            "output": {"progress": False, "vtk": False, "surge_front": True, "interval": 0.002}}
+    wcsph.run(case, output=tmp_path)
+    with open(tmp_path / "probes.csv") as f:
+        rows = list(csv.DictReader(f))
+    T = np.array([float(r["time"]) for r in rows]) * scale
+    Z = np.array([float(r["surge_front"]) for r in rows]) / a
+    err = np.interp(ref[:, 0], T, Z) / ref[:, 1] - 1
+    assert np.all(np.abs(err) < 0.10), dict(zip(ref[:, 0], np.round(err, 3)))
+
+
+def test_dam_break_3d_bi_stays_physical(tmp_path):
+    s = wcsph.run("dam_break_3d_bi", output=tmp_path, progress=False, overrides=[
+        ("dp", 0.04), ("time.end", 0.15), ("output.vtk", False)])
+    assert s["dim"] == 3 and s["n_fluid"] == 7 * 10 * 15 and s["dropped"] == 0
+    with open(tmp_path / "probes.csv") as f:
+        rows = list(csv.DictReader(f))
+    ek = [float(r["kinetic_energy"]) for r in rows]
+    ep = [float(r["potential_energy"]) for r in rows]
+    assert ek[-1] > 0 and ep[-1] < ep[0] and ek[-1] - ek[0] <= (ep[0] - ep[-1]) * 1.01
+
+
+# ------------------------------------------------------------------ conservation
+def _random_patch(walls):
+    rng = np.random.default_rng(1)
+    case = {"dim": 2, "dp": 0.02, "precision": "float64", "time": {"end": 1.0, "dt": 2e-4},
+            "physics": {"gravity": [0.0, 0.0], "speed_of_sound": 20.0},
+            "model": {"name": "bi", "BCType": "BIConservative_numeric", "DiffusiveTerm": "MolteniDiffusiveTerm",
+                      "enableElasticBounce": False, "enableShifting": False},
+            "fluid": [{"min": [0.0, 0.0], "max": [0.4, 0.4]}]}
+    if walls:
+        case["tank"] = {"min": [0.0, 0.0], "max": [0.4, 0.4], "open_top": False}
+    sim = wcsph.Simulation(validate(case))
+    sim.fluid["v"] = rng.normal(0, 0.3, sim.fluid["v"].shape)
+    return sim
+
+
+def _momenta(sim):
+    x, v, m = sim.host(sim.fluid, "x", "v", "m")
+    return (m * v).sum(axis=1), float((m * (x[0] * v[1] - x[1] * v[0])).sum())
+
+
+def test_conservative_scheme_conserves_momentum_without_walls():
+    """An inviscid fluid patch with random velocities, no gravity, no walls: 300 steps of
+    symplectic Verlet keep linear and angular momentum to round-off (pair forces are
+    antisymmetric and central)."""
+    sim = _random_patch(walls=False)
+    P0, L0 = _momenta(sim)
+    scale = float((sim.host(sim.fluid, "m")[0] * np.abs(sim.host(sim.fluid, "v")[0]).sum(axis=0)).sum())
+    for _ in range(300):
+        sim.step(2e-4)
+    P1, L1 = _momenta(sim)
+    assert np.abs(P1 - P0).max() < 1e-12 * scale, P1 - P0
+    assert abs(L1 - L0) < 1e-12 * scale, L1 - L0
+    assert np.abs(sim.host(sim.fluid, "drhodt")[0]).max() > 1  # the fluid is being compressed
+
+
+def test_conservative_scheme_closed_box_momentum_balance():
+    """In a closed box (no gravity, inviscid) the fluid's total force and torque equal
+    those of the boundary-integral wall force alone, computed independently from the spec's
+    formula -2 p_i V_i sum_b n_b W_ib S_b: the fluid pairs add nothing, to round-off."""
+    sim = _random_patch(walls=True)
+    for _ in range(50):
+        sim.step(2e-4)
+    sim.evaluate(sim.P)
+    x, a, p, rho, m = sim.host(sim.fluid, "x", "dvdt", "p", "rho", "m")
+    xb, nb, sb = sim.host(sim.walls, "x", "n", "elementSize")
+    w, _ = kernel_numpy("wendland", 2, sim.h)
+    r = np.sqrt(((x[:, :, None] - xb[:, None, :]) ** 2).sum(axis=0))
+    f_wall = -2 * (p * m / rho)[None, :] * np.einsum("db,ib->di", nb, w(r) * sb)
+    force = m * a
+    assert np.abs(f_wall).sum() > 1e-3 * np.abs(force).sum()  # the walls do push
+    scale = np.abs(force).sum()
+    assert np.abs(force.sum(axis=1) - f_wall.sum(axis=1)).max() < 1e-10 * scale
+    torque = (x[0] * force[1] - x[1] * force[0]).sum()
+    torque_wall = (x[0] * f_wall[1] - x[1] * f_wall[0]).sum()
+    assert abs(torque - torque_wall) < 1e-10 * scale
+
+
+# ------------------------------------------------------------------ probes
+def test_probes_read_the_still_water(tmp_path):
+    """At t = 0 in the hydrostatic tank: the level gauge reads the depth within dp/4, the
+    mid-depth sensor rho0 g H/2 within 1 %; columns are named after the probes."""
+    case = load("hydrostatic_2d_bi", [("time.end", 0.001), ("output.vtk", False)])
+    sim = wcsph.Simulation(case)
+    values = sim.probes.sample()
+    assert set(values) == {"p_bottom", "p_mid", "level"}
+    assert values["level"] == pytest.approx(0.5, abs=0.25 * case["dp"])
+    assert values["p_mid"] == pytest.approx(1000 * 9.81 * 0.25, rel=0.01)
+    sim.run(output=tmp_path, progress=False)
+    header = (tmp_path / "probes.csv").read_text().splitlines()[0].split(",")
+    assert header[-3:] == ["p_bottom", "p_mid", "level"]
+
+
+def test_probe_outside_domain_is_a_case_error():
+    case = load("hydrostatic_2d_bi", [("probes", [{"name": "far", "kind": "pressure", "position": [9.0, 0.1]}])])
+    with pytest.raises(CaseError, match=r"probes\[0\].position: .* outside the domain"):
+        wcsph.Simulation(case)
+
+
+# ------------------------------------------------------------------ parameters
+def test_spec_parameter_names_and_derived_defaults():
+    case = load("dam_break_2d_bi", [("dp", 0.02)])
+    assert case["physics"]["rho0"] == 997.0 and case["physics"]["speed_of_sound"] == 17.155
+    assert case["model"]["h"] == 0.01 and case["model"]["dynamicViscosity"] == 1e-3
+    assert case["model"]["delta"] == 0.1 and case["model"]["alpha"] == 0.02  # spec defaults
+    assert case["model"]["r_boxFactor"] == 1.5 and case["model"]["minimalDistanceFactor"] == 0.5
+    # --set on a spec name given under [parameters] changes it there
+    assert load("dam_break_2d_bi", [("model.delta", 0.05)])["model"]["delta"] == 0.05
+    assert load("dam_break_2d_bi", [("parameters.delta", 0.2)])["model"]["delta"] == 0.2
+    # left at 0: h = 2 dp, searchRadius = 2h, mass = rho0 dp^2, element size dp
+    sim = wcsph.Simulation(load("hydrostatic_2d_bi"))
+    assert sim.h == pytest.approx(0.04) and sim.grid.cell_size == pytest.approx(0.08)
+    assert sim.mass == pytest.approx(1000 * 0.02**2)
+    assert np.allclose(sim.host(sim.walls, "elementSize")[0], 0.02)
+
+
+@pytest.mark.parametrize("data,message", [
+    ({"parameters": {"deltaa": 0.1}}, "parameters.deltaa: unknown parameter"),
+    ({"parameters": {"delta": 0.1}, "model": {"name": "bi", "delta": 0.2}}, "parameters.delta: also given"),
+    ({"model": {"name": "bi", "xsph": 0.1}}, "model.xsph: applies to model 'classic'"),
+    ({"model": {"name": "classic", "delta": 0.1}}, "model.delta: applies to model 'bi'"),
+    ({"model": {"name": "bi", "ViscousTerm": "Laminar"}}, "model.ViscousTerm: must be one of"),
+    ({"model": {"name": "bi", "elasticFactor": 2.0}}, "model.elasticFactor: must lie in [0, 1]"),
+])
+def test_bi_case_errors_name_the_key(data, message):
+    base = {"dim": 2, "dp": 0.05, "time": {"end": 0.1}, "fluid": [{"min": [0.0, 0.0], "max": [0.5, 0.5]}],
+            "model": {"name": "bi"}}
+    base.update(copy.deepcopy(data))
+    with pytest.raises(CaseError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        validate(base, src="c.toml")
