@@ -124,6 +124,7 @@ class PointProbes:
         if not self.n:
             return {}
         sim = self.sim
+        sim.model.refresh(sim.fluid, sim.P)
         f = sim.fluid
         fluid = ProbeFluid(f["x"], f["p"], f["rho"], f["m"], f["cell"], f["start"])
         self.sampler(self.points.view(ProbePoints), fluid, fluid, sim.P, sim.G)
