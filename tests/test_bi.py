@@ -210,7 +210,7 @@ def test_probe_outside_domain_is_a_case_error():
 def test_spec_parameter_names_and_derived_defaults():
     case = load("dam_break_2d_bi", [("dp", 0.02)])
     assert case["physics"]["rho0"] == 997.0 and case["physics"]["speed_of_sound"] == 17.155
-    assert case["model"]["h"] == 0.01 and case["model"]["dynamicViscosity"] == 1e-3
+    assert case["model"]["h"] == 0 and case["model"]["dynamicViscosity"] == 1e-3
     assert case["model"]["delta"] == 0.1 and case["model"]["alpha"] == 0.02  # spec defaults
     assert case["model"]["r_boxFactor"] == 1.5 and case["model"]["minimalDistanceFactor"] == 0.5
     # --set on a spec name given under [parameters] changes it there
