@@ -1,5 +1,4 @@
 """Density by kernel summation (Becker & Teschner 2007) with Akinci et al. (2012) walls."""
-import numpy as np
 from numba.extending import register_jitable
 
 
