@@ -64,7 +64,7 @@ def make_symplectic_verlet(dim, continuity, dtype):
 class Integrator:
     """A scheme as a sequence of derivative evaluations and per-particle maps."""
 
-    fields = ()  # extra per-particle arrays the scheme keeps: (name, 'scalar'|'vector')
+    fields = ()  # per-particle arrays the scheme keeps within a step: (name, kind, scratch)
 
     def __init__(self, backend, dim, continuity, dtype):
         self.maps = [backend.make_map(f) for f in self.factory(dim, continuity, dtype)]
@@ -72,7 +72,6 @@ class Integrator:
 
 class SymplecticEuler(Integrator):
     factory = staticmethod(make_symplectic_euler)
-    evaluations = 1
 
     def step(self, sim, P):
         sim.evaluate(P)
@@ -81,8 +80,7 @@ class SymplecticEuler(Integrator):
 
 class SymplecticVerlet(Integrator):
     factory = staticmethod(make_symplectic_verlet)
-    fields = (("x_old", "vector"), ("v_old", "vector"), ("rho_old", "scalar"))
-    evaluations = 2
+    fields = (("x_old", "vector", True), ("v_old", "vector", True), ("rho_old", "scalar", True))
 
     def step(self, sim, P):
         predict, correct = self.maps

@@ -14,6 +14,7 @@ class ParticleSet:
         self.dim = dim
         self.arrays = dict(arrays)
         self.n = self.arrays["x"].shape[1]
+        self.scratch = set()  # fields recomputed before they are read: sorting skips them
 
     def __getitem__(self, key):
         return self.arrays[key]
@@ -21,15 +22,23 @@ class ParticleSet:
     def __setitem__(self, key, value):
         self.arrays[key] = value
 
-    def add(self, key, shape_kind, dtype, backend, fill=0.0):
-        """Add a per-particle field: ``shape_kind`` 'scalar' or 'vector'."""
+    def add(self, key, shape_kind, dtype, backend, fill=0.0, scratch=False):
+        """Add a per-particle field: ``shape_kind`` 'scalar' or 'vector'. A ``scratch`` field
+        is written by every step before anything reads it (derivatives, EOS values, an
+        integrator's saved copies), so sorting need not carry it to the new order."""
         shape = (self.n,) if shape_kind == "scalar" else (self.dim, self.n)
         self.arrays[key] = backend.to_device(np.full(shape, fill, dtype=dtype))
+        if scratch:
+            self.scratch.add(key)
 
     def per_particle(self):
         """Names of the arrays indexed by particle (reordered when particles are sorted)."""
         return [k for k, a in self.arrays.items()
                 if k != "start" and not k.startswith("_") and a.shape[len(a.shape) - 1] == self.n]
+
+    def sorted_fields(self):
+        """The per-particle arrays a sort must reorder: all but the scratch fields."""
+        return [k for k in self.per_particle() if k not in self.scratch]
 
     def view(self, cls):
         return cls(**{f: self.arrays[f] for f in cls._fields})

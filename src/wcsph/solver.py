@@ -62,12 +62,11 @@ class Simulation:
         self.P = model.params(kp, self.rho0, self.gamma, self.c0, self.gravity, 1.0)
 
         n = fluid_x.shape[1]
-        rho = model.initial_density(fluid_x, fluid0["top"], self.rho0, self.c0, self.gamma, self.gravity,
-                                    ph["p0"])
+        rho = model.initial_density(fluid_x, fluid0["top"], self.rho0, self.c0, self.gamma, self.gravity)
         self.fluid = ParticleSet("fluid", dim, {"x": be.to_device(fluid_x.astype(dtype)),
                                                "v": be.to_device(fluid_v.astype(dtype))})
-        for name, kind in list(model.fluid_fields()) + list(self.integrator.fields):
-            self.fluid.add(name, kind, dtype, be)
+        for name, kind, scratch in list(model.fluid_fields()) + list(self.integrator.fields):
+            self.fluid.add(name, kind, dtype, be, scratch=scratch)
         self.fluid["rho"] = be.to_device(rho.astype(dtype))
         self.fluid["m"] = be.to_device(np.full(n, self.mass, dtype=dtype))
         self.fluid["id"] = be.to_device(np.arange(n, dtype=np.int64))  # follows the particle
@@ -248,7 +247,7 @@ class Output:
 
     def write(self, failed=False):
         sim = self.sim
-        sim.model.refresh(sim.fluid, sim.P)
+        values = sim.probes.sample()  # refreshes p from the current density first
         x, v, rho, p, m, ids = sim.host(sim.fluid, "x", "v", "rho", "p", "m", "id")
         if self.oc["vtk"]:
             name = "fluid_failed.vtu" if failed else f"fluid_{self.count:04d}.vtu"
@@ -267,7 +266,7 @@ class Output:
                "n_fluid": sim.fluid.n, "kinetic_energy": ek, "potential_energy": ep}
         if self.oc["surge_front"]:
             row["surge_front"] = probes.surge_front(x, sim.dp)
-        row.update(sim.probes.sample())
+        row.update(values)
         self.probes.write(row)
         self.count += 1
 

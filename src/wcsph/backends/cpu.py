@@ -148,7 +148,7 @@ class CpuBackend:
         perm = np.empty(pset.n, dtype=np.int64)
         _cell_ids(x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, cell)
         _counting_sort(cell, g.ncells, start, perm)
-        for k in pset.per_particle():
+        for k in pset.sorted_fields():
             a = pset[k]
             out = np.empty_like(a)
             (_gather1 if a.ndim == 1 else _gather2)(a, perm, out)

@@ -169,7 +169,7 @@ class CudaBackend:
             start_d = cuda.to_device(start_h)
             n_in = int(start_h[g.ncells])
         pset["start"] = start_d
-        for k in pset.per_particle():
+        for k in pset.sorted_fields():
             a = pset[k]
             out = cuda.device_array_like(a)
             if n:

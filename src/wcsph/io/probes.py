@@ -120,11 +120,12 @@ class PointProbes:
         return [p["name"] for p in self.specs]
 
     def sample(self):
-        """{probe name: value} at the current state."""
-        if not self.n:
-            return {}
+        """{probe name: value} at the current state (after refreshing the model's p from
+        the current density)."""
         sim = self.sim
         sim.model.refresh(sim.fluid, sim.P)
+        if not self.n:
+            return {}
         f = sim.fluid
         fluid = ProbeFluid(f["x"], f["p"], f["rho"], f["m"], f["cell"], f["start"])
         self.sampler(self.points.view(ProbePoints), fluid, fluid, sim.P, sim.G)

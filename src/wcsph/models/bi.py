@@ -145,8 +145,9 @@ class WCSPHBI:
 
     # ------------------------------------------------------------------ set-up
     def fluid_fields(self):
-        return [("dvdt", "vector"), ("rho", "scalar"), ("drhodt", "scalar"), ("p", "scalar"),
-                ("vol", "scalar"), ("gamma", "scalar")]
+        """(name, kind, scratch) as for the classic model; rho is a state here."""
+        return [("dvdt", "vector", True), ("rho", "scalar", False), ("drhodt", "scalar", True),
+                ("p", "scalar", True), ("vol", "scalar", True), ("gamma", "scalar", True)]
 
     def wall_fields(self):
         return [("p", "scalar"), ("rho", "scalar")]
@@ -162,7 +163,7 @@ class WCSPHBI:
         """B of the Cole EOS: ``coefB``, else c0^2 rho0 / gamma."""
         return self.m["coefB"] or c0 * c0 * rho0 / gamma
 
-    def initial_density(self, x, blocks, rho0, c0, gamma, gravity, p0):
+    def initial_density(self, x, blocks, rho0, c0, gamma, gravity):
         """Hydrostatic density under each fluid block's top, rho = EOS^-1(p0 + rho0 |g| depth),
         so that a column starts in equilibrium (DualSPHysics and TNL-SPH cases do the same);
         ``blocks`` gives each particle's block top."""

@@ -86,9 +86,10 @@ class ClassicWCSPH:
                              pair2=compose(*wall_terms))
 
     def fluid_fields(self):
-        """Per-particle fields the model needs beyond x, v: (name, 'scalar'|'vector')."""
-        return [("dvdt", "vector"), ("rho", "scalar"), ("p", "scalar"), ("pr", "scalar"), ("vol", "scalar"),
-                ("m", "scalar")]
+        """Per-particle fields the model needs beyond x, v: (name, 'scalar'|'vector', scratch),
+        scratch when every evaluation writes the field before reading it."""
+        return [("dvdt", "vector", True), ("rho", "scalar", True), ("p", "scalar", True), ("pr", "scalar", True),
+                ("vol", "scalar", True), ("m", "scalar", False)]
 
     def wall_fields(self):
         return [("psi", "scalar")]
@@ -102,7 +103,7 @@ class ClassicWCSPH:
     def kinematic_viscosity(self, rho0):
         return 0.0
 
-    def initial_density(self, x, tops, rho0, c0, gamma, gravity, p0):
+    def initial_density(self, x, tops, rho0, c0, gamma, gravity):
         return np.full(x.shape[1], rho0)  # replaced by the summation at the first evaluation
 
     def refresh(self, fluid, P):
