@@ -30,6 +30,7 @@ def _one_of(*opts):
 BLOCK = {"min": ("vec", REQUIRED, None), "max": ("vec", REQUIRED, None)}
 FLUID_BLOCK = dict(BLOCK, velocity=("vec", None, None))
 UNIT = (lambda v: 0 <= v <= 1, "must lie in [0, 1]")
+UNIT_OPEN = (lambda v: 0 <= v < 1, "must lie in [0, 1)")
 #: a 2D wall along a polyline; the fluid lies on the left of the direction of travel
 POLYGON = {"points": ("points", REQUIRED, None), "closed": ("bool", False, None)}
 #: pressure sensor at ``position``; water-level gauge along the vertical line from
@@ -56,6 +57,11 @@ SPEC_PARAMETERS = {
     "elasticFactor": "model.elasticFactor", "r_boxFactor": "model.r_boxFactor",
     "minimalDistanceFactor": "model.minimalDistanceFactor", "dtInit": "time.dtInit", "cfl": "time.cfl",
     "dtMin": "time.dtMin", "gravity": "physics.gravity", "eps": "model.eps",
+    "midpointMaxInterations": "time.midpointMaxInterations",
+    "midpointResidualTolerance": "time.midpointResidualTolerance", "midpointRelaxCoef": "time.midpointRelaxCoef",
+    "midpointRelaxCoef_0": "time.midpointRelaxCoef_0",
+    "midpointResidualMinimalDecay": "time.midpointResidualMinimalDecay",
+    "midpointRelaxCoefIncrement": "time.midpointRelaxCoefIncrement",
 }
 
 SCHEMA = {
@@ -117,7 +123,17 @@ SCHEMA = {
     }, {}, None),
     "time": ({
         "end": ("float", REQUIRED, POS),
-        "integrator": ("str", "", _one_of("", "symplectic_euler", "symplectic_verlet")),
+        "integrator": ("str", "", _one_of("", "symplectic_euler", "verlet", "symplectic_verlet", "midpoint", "rk4",
+                                          "rk45", "MidpointScheme", "VerletScheme", "SymplecticVerletScheme",
+                                          "RK45")),
+        "verlet_euler_interval": ("int", 40, NONNEG),
+        "rk45_tolerance": ("float", 1e-6, POS),
+        "midpointMaxInterations": ("int", 50, POS),
+        "midpointResidualTolerance": ("float", 1e-7, POS),
+        "midpointRelaxCoef": ("float", 0.0, UNIT_OPEN),
+        "midpointRelaxCoef_0": ("float", 0.0, UNIT_OPEN),
+        "midpointResidualMinimalDecay": ("float", 0.2, POS),
+        "midpointRelaxCoefIncrement": ("float", 0.0, UNIT_OPEN),
         "cfl": ("float", 0.25, POS),
         "force_cfl": ("float", 0.25, POS),
         "dt": ("float", 0.0, NONNEG),

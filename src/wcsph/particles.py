@@ -23,10 +23,14 @@ class ParticleSet:
         self.arrays[key] = value
 
     def add(self, key, shape_kind, dtype, backend, fill=0.0, scratch=False):
-        """Add a per-particle field: ``shape_kind`` 'scalar' or 'vector'. A ``scratch`` field
+        """Add a per-particle field: ``shape_kind`` 'scalar', 'vector' or a tuple of leading
+        dimensions (an integrator's stages: (stages, components)). A ``scratch`` field
         is written by every step before anything reads it (derivatives, EOS values, an
         integrator's saved copies), so sorting need not carry it to the new order."""
-        shape = (self.n,) if shape_kind == "scalar" else (self.dim, self.n)
+        if isinstance(shape_kind, tuple):
+            shape = tuple(shape_kind) + (self.n,)
+        else:
+            shape = (self.n,) if shape_kind == "scalar" else (self.dim, self.n)
         self.arrays[key] = backend.to_device(np.full(shape, fill, dtype=dtype))
         if scratch:
             self.scratch.add(key)

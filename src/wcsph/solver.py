@@ -10,7 +10,7 @@ from . import geometry
 from .backends import get_backend
 from .config import CaseError
 from .grid import Grid
-from .integrators import INTEGRATORS, StateView
+from .integrators import INTEGRATORS, SPEC_SCHEMES, IntegrationError, StateView
 from .io import probes, vtk
 from .kernels import SUPPORT, kernel_numpy, kernel_params
 from .models import get_model
@@ -57,7 +57,9 @@ class Simulation:
         self.model = model = get_model(m["name"])(case, be)
         self.mass = model.particle_mass(dp, h, self.rho0, w_np)
         scheme = case["time"]["integrator"] or model.default_integrator
-        self.integrator = INTEGRATORS[scheme](be, dim, model.continuity, dtype)
+        scheme = SPEC_SCHEMES.get(scheme, scheme)
+        self.integrator = INTEGRATORS[scheme](be, dim, model.continuity, dtype, settings=dict(
+            case["time"], adaptive=case["time"]["dt"] <= 0))
         kp = dict(kernel_params(m["kernel"], dim, h), rc=rc)
         self.P = model.params(kp, self.rho0, self.gamma, self.c0, self.gravity, 1.0)
 
@@ -70,6 +72,8 @@ class Simulation:
         self.fluid["rho"] = be.to_device(rho.astype(dtype))
         self.fluid["m"] = be.to_device(np.full(n, self.mass, dtype=dtype))
         self.fluid["id"] = be.to_device(np.arange(n, dtype=np.int64))  # follows the particle
+        self._placeholders = {"k": be.to_device(np.zeros((1, 1, 1), dtype=dtype)),
+                              "w": be.to_device(np.zeros(1, dtype=dtype))}
         self.walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
         self.walls.add("v", "vector", dtype, be)
         for name, kind in model.wall_fields():
@@ -107,33 +111,47 @@ class Simulation:
             return 1.0
         return 0.5 * (math.sin((t / td - 0.5) * math.pi) + 1.0)
 
-    def time_step(self):
-        """Constant ``time.dt``, else the least of the CFL (sound speed plus flow speed),
-        force (Monaghan 1992) and viscous (Morris et al. 1997) conditions; ``dtInit`` for the
-        first step when given. Falling below ``dtMin`` stops the run."""
+    def stable_time_step(self):
+        """The least of the CFL (sound speed plus flow speed), force (Monaghan 1992) and
+        viscous (Morris et al. 1997) conditions: dt = min(cfl h/(c0 + |v|max),
+        force_cfl sqrt(h/|a|max), 0.125 h^2/nu)."""
         tc = self.case["time"]
-        if tc["dt"] > 0:
-            return tc["dt"]
-        if self.steps == 0 and tc["dtInit"] > 0:
-            return tc["dtInit"]
         dt = tc["cfl"] * self.h / (self.c0 + self.vmax)
         if self.amax > 0:
             dt = min(dt, tc["force_cfl"] * math.sqrt(self.h / self.amax))
         nu = self.model.kinematic_viscosity(self.rho0)
         if nu > 0:
             dt = min(dt, 0.125 * self.h * self.h / nu)
+        return dt
+
+    def time_step(self):
+        """Constant ``time.dt``, else the stability conditions (``stable_time_step``), which
+        an adaptive integrator may lower; ``dtInit`` for the first step when given. Falling
+        below ``dtMin`` stops the run."""
+        tc = self.case["time"]
+        if tc["dt"] > 0:
+            return tc["dt"]
+        if self.steps == 0 and tc["dtInit"] > 0:
+            return tc["dtInit"]
+        dt = self.integrator.propose(self.stable_time_step())
         if dt < tc["dtMin"]:
             raise SimulationError(f"time step {dt:.3g} s fell below time.dtMin = {tc['dtMin']:.3g} s at "
                                   f"t = {self.t:.6g} s (|v|max = {self.vmax:.3g} m/s, |a|max = {self.amax:.3g} m/s^2)")
         return dt
 
-    def state(self):
-        """The fluid as the integrators see it (``StateView``); rho stands in for the fields
-        a model without a continuity equation lacks."""
-        f = self.fluid
-        rho = f["rho"]
-        return StateView(f["x"], f["v"], f["dvdt"], rho, f.arrays.get("drhodt", rho), f.arrays.get("x_old", f["x"]),
-                         f.arrays.get("v_old", f["v"]), f.arrays.get("rho_old", rho))
+    def state(self, w=None):
+        """The fluid as the integrators see it (``StateView``), with ``w`` the scheme's
+        coefficients; stand-ins (of the right kind) for the fields this model or scheme
+        lacks, which the scheme then never reads."""
+        a = self.fluid.arrays
+        x, v, rho = a["x"], a["v"], a["rho"]
+        return StateView(x, v, a["dvdt"], rho, a.get("drhodt", rho), a["p"], a["m"], a.get("x0", x), a.get("v0", v),
+                         a.get("rho0", rho), a.get("dv_t", v), a.get("drho_t", rho),
+                         a.get("k", self._placeholders["k"]), self._placeholders["w"] if w is None else w)
+
+    def params_for(self, dt):
+        """The model parameters for a step of size ``dt`` from the current time."""
+        return self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t))
 
     def evaluate(self, P):
         """The model's derivatives at the current state (called by the integrator)."""
@@ -142,11 +160,17 @@ class Simulation:
     def step(self, dt):
         """One time step: sort by cell (once: the neighbour cells of the step's first state
         serve its later stages too, which moves particles by far less than a cell), the
-        integrator's stages, then the model's wall corrections."""
+        integrator's stages, then the model's wall corrections. An adaptive integrator may
+        take a smaller step than ``dt``; returns the step taken."""
         be = self.backend
         self.dropped += be.sort(self.fluid, self.grid)
-        self.P = self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t))
-        self.integrator.step(self, self.P)
+        self.P = self.params_for(dt)
+        try:
+            dt = self.integrator.step(self, self.P)
+        except IntegrationError as e:
+            raise SimulationError(f"{e} at t = {self.t:.6g} s (step {self.steps})") from None
+        if dt != float(self.P.dt):
+            self.P = self.params_for(dt)
         self.model.correct(self.fluid, self.walls, self.P, self.G)
         self.t += dt
         self.steps += 1
@@ -158,6 +182,7 @@ class Simulation:
         if self.vmax > self.c0:
             raise SimulationError(f"runaway velocity {self.vmax:.3g} m/s exceeds the speed of sound "
                                   f"{self.c0:.3g} m/s at t = {self.t:.6g} s (step {self.steps})")
+        return dt
 
     def host(self, pset, *names):
         return [self.backend.to_host(pset[k]) for k in names]
@@ -194,6 +219,8 @@ class Simulation:
                     dt = min(self.time_step(), end - self.t)
                     t0 = time.perf_counter()
                     self.step(dt)
+                    if writer is not None:
+                        writer.log_step()
                     if compile_time is None:
                         compile_time = time.perf_counter() - t0
                         t_loop = time.perf_counter()
@@ -239,7 +266,12 @@ class Output:
         if oc["surge_front"]:
             cols.append("surge_front")
         cols += sim.probes.columns()
+        self.stats = sim.integrator.columns()  # per-step figures of the scheme (midpoint, RK45)
+        self.iter_max = 0
+        cols += self.stats + (["midpoint_iterations_max"] if "midpoint_iterations" in self.stats else [])
         self.probes = probes.ProbeWriter(out / "probes.csv", cols)
+        self.steps_log = probes.ProbeWriter(out / "steps.csv", ["step", "time", "dt"] + self.stats) \
+            if self.stats else None
         if oc["vtk"] and sim.walls.n:
             names = [k for k in ("n", "elementSize", "psi") if k in sim.walls.arrays]
             vtk.write_points(out / "walls.vtu", sim.host(sim.walls, "x")[0],
@@ -267,9 +299,26 @@ class Output:
         if self.oc["surge_front"]:
             row["surge_front"] = probes.surge_front(x, sim.dp)
         row.update(values)
+        stats = sim.integrator.stats
+        row.update(stats)
+        if "midpoint_iterations" in stats:
+            row["midpoint_iterations_max"] = self.iter_max
+            self.iter_max = 0
         self.probes.write(row)
         self.count += 1
 
+    def log_step(self):
+        """One row of ``steps.csv`` per step for schemes with per-step figures (midpoint
+        iterations and residual, RK45 error and rejections)."""
+        if self.steps_log is None:
+            return
+        sim = self.sim
+        stats = sim.integrator.stats
+        self.iter_max = max(self.iter_max, stats.get("midpoint_iterations", 0))
+        self.steps_log.write(dict(stats, step=sim.steps, time=sim.t, dt=float(sim.P.dt)))
+
     def close(self, summary):
         self.probes.close()
+        if self.steps_log is not None:
+            self.steps_log.close()
         (self.out / "run.json").write_text(json.dumps(summary, indent=2) + "\n")

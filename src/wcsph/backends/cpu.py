@@ -115,6 +115,22 @@ def _make_map_loop(fn):
     return run
 
 
+def _make_reduce_loop(fn):
+    @njit(parallel=True, fastmath=True, cache=True)
+    def run(I, P):
+        s1 = 0.0
+        s2 = 0.0
+        mx = 0.0
+        for i in prange(I.x.shape[1]):
+            a, b, c = fn(i, I, P)
+            s1 += a
+            s2 += b
+            mx = max(mx, c)
+        return s1, s2, mx
+
+    return run
+
+
 class CpuBackend:
     name = "cpu"
 
@@ -134,6 +150,10 @@ class CpuBackend:
 
     def make_map(self, fn):
         return _make_map_loop(fn)
+
+    def make_reduce(self, fn):
+        """A per-particle function returning (a, b, c) reduced to (sum a, sum b, max c)."""
+        return _make_reduce_loop(fn)
 
     def sort(self, pset, grid):
         """Reorder ``pset`` by cell; drop particles outside the domain. Returns how many

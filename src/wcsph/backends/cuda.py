@@ -124,6 +124,38 @@ def _make_map_kernel(fn):
     return launch
 
 
+def _make_reduce_kernel(fn):
+    @cuda.jit
+    def run(I, P, out):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            a, b, c = fn(i, I, P)
+            out[0, i] = a
+            out[1, i] = b
+            out[2, i] = c
+
+    def launch(I, P):
+        n = I.x.shape[1]
+        if n == 0:
+            return 0.0, 0.0, 0.0
+        out = cuda.device_array((3, n), dtype=np.float64)
+        run[_blocks(n), THREADS](I, P, out)
+        return _reduce_rows(out)
+
+    return launch
+
+
+def _reduce_rows(out):
+    """(sum of row 0, sum of row 1, max of row 2) of a (3, n) device array."""
+    if _cp is not None:
+        o = _cp.asarray(out)
+        r = _cp.stack([o[0].sum(), o[1].sum(), o[2].max()]).get()
+    else:
+        o = out.copy_to_host()
+        r = (o[0].sum(), o[1].sum(), o[2].max())
+    return float(r[0]), float(r[1]), float(r[2])
+
+
 class CudaBackend:
     name = "cuda"
 
@@ -142,6 +174,9 @@ class CudaBackend:
 
     def make_map(self, fn):
         return _make_map_kernel(fn)
+
+    def make_reduce(self, fn):
+        return _make_reduce_kernel(fn)
 
     def sort(self, pset, grid):
         g = grid.view()
