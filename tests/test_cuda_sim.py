@@ -11,10 +11,10 @@ pytest.importorskip("numba.cuda")
 SCRIPT = r"""
 import json, sys, numpy as np, wcsph
 from wcsph.config import load
-name, dp = sys.argv[1], float(sys.argv[2])
+name, dp, extra = sys.argv[1], float(sys.argv[2]), json.loads(sys.argv[3])
 res = {}
 for be in ("cpu", "cuda"):
-    case = load(name, [("dp", dp), ("time.max_steps", 4), ("time.dt", 5e-4), ("precision", "float64")])
+    case = load(name, [("dp", dp), ("time.max_steps", 4), ("time.dt", 5e-4), ("precision", "float64")] + list(extra.items()))
     sim = wcsph.Simulation(case, backend=be)
     sim.run(progress=False)
     x, v, rho, p, ids = sim.host(sim.fluid, "x", "v", "rho", "p", "id")
@@ -28,13 +28,17 @@ print(json.dumps({"n": [c[4], g[4]], "steps": [c[5], g[5]],
 """
 
 
-@pytest.mark.parametrize("name,dp", [("dam_break_2d", 0.1), ("dam_break_3d", 0.06), ("dam_break_2d_bi", 0.05),
-                                     ("dam_break_3d_bi", 0.06)])
-def test_cuda_kernels_match_cpu_in_simulator(name, dp):
+@pytest.mark.parametrize("name,dp,extra", [
+    ("dam_break_2d", 0.1, {}), ("dam_break_3d", 0.06, {}), ("dam_break_2d_bi", 0.05, {}), ("dam_break_3d_bi", 0.06, {}),
+    ("dam_break_2d_bi", 0.05, {"time.integrator": "midpoint", "time.midpointMaxInterations": 4}),
+    ("dam_break_2d_bi", 0.05, {"time.integrator": "rk45"}), ("dam_break_2d", 0.1, {"time.integrator": "verlet"})],
+    ids=["classic-2d", "classic-3d", "bi-2d", "bi-3d", "bi-2d-midpoint", "bi-2d-rk45", "classic-2d-verlet"])
+def test_cuda_kernels_match_cpu_in_simulator(name, dp, extra):
     """Classic and WCSPH-BI (consistent scheme: boundary pass, interaction, wall corrections,
-    symplectic Verlet), 2D and 3D."""
+    symplectic Verlet), 2D and 3D; the implicit midpoint (with its residual reduction), RK45
+    and Verlet."""
     env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
-    r = subprocess.run([sys.executable, "-c", SCRIPT, name, str(dp)], capture_output=True, text=True,
+    r = subprocess.run([sys.executable, "-c", SCRIPT, name, str(dp), json.dumps(extra)], capture_output=True, text=True,
                        env=env, timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
     res = json.loads(r.stdout.strip().splitlines()[-1])
