@@ -455,8 +455,10 @@ class ImplicitMidpoint(Integrator):
     t_0 on the first step). The relaxation weight w of the previous iterate is the spec's
     1 - f: ``midpointRelaxCoef_0`` on the first iteration, then ``midpointRelaxCoef``,
     raised to df + (1 - df) w (df = ``midpointRelaxCoefIncrement``) whenever the residual
-    fell by less than the factor ``midpointResidualMinimalDecay`` (g_R); the defaults (0)
-    give the plain iteration, as in TNL-SPH, whose parameter names these are. A relaxed
+    fell by less than the factor ``midpointResidualMinimalDecay`` (g_R), i.e. when
+    R^m / R^m-1 > g_R (the spec's parenthesis prints the inequality the other way round; its
+    words, and TNL-SPH, raise the relaxation when the residual decays too slowly). The
+    defaults (0) give the plain iteration, as in TNL-SPH, whose parameter names these are. A relaxed
     iteration converges for steps well beyond the explicit limit: on an acoustic mode of
     frequency w the plain iteration's error is multiplied by dt w / 2 per iteration, the
     relaxed one's by |w + (1 - w) i dt w/2|.

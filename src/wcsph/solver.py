@@ -85,6 +85,7 @@ class Simulation:
 
         self.t = 0.0
         self.steps = 0
+        self.evaluations = 0  # derivative evaluations (integrator stages, midpoint iterations)
         self.dropped = 0
         self.vmax = float(np.max(np.linalg.norm(fluid_v, axis=0))) if n else 0.0
         self.amax = float(np.linalg.norm(self.gravity))
@@ -155,6 +156,7 @@ class Simulation:
 
     def evaluate(self, P):
         """The model's derivatives at the current state (called by the integrator)."""
+        self.evaluations += 1
         self.model.derivatives(self.fluid, self.walls, P, self.G)
 
     def step(self, dt):
@@ -242,7 +244,7 @@ class Simulation:
             "backend": self.backend.name, "precision": case["precision"], "dim": self.dim, "dp": self.dp,
             "h": self.h, "speed_of_sound": self.c0, "particle_mass": self.mass,
             "n_fluid": self.fluid.n, "n_boundary": self.walls.n, "dropped": self.dropped,
-            "steps": self.steps, "end_time": self.t, "wall_time_s": wall,
+            "steps": self.steps, "evaluations": self.evaluations, "end_time": self.t, "wall_time_s": wall,
             "compile_time_s": self.setup_time + (compile_time or 0.0), "io_time_s": io_time, "stepping_time_s": stepping,
             "particle_steps_per_s": self.fluid.n * timed_steps / stepping if stepping > 0 else 0.0,
         }
