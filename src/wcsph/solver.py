@@ -204,6 +204,7 @@ class Simulation:
 
         t_start = time.perf_counter()
         next_out = self.t
+        slack = 1e-9 * end  # round-off in the summed time; not worth a step of its own
         io_time = 0.0
         compile_time = None
         t_loop = None
@@ -211,12 +212,12 @@ class Simulation:
         try:
             with Progress(end, enabled=show) as bar:
                 while True:
-                    if writer is not None and self.t >= next_out - 1e-12:
+                    if writer is not None and self.t >= next_out - slack:
                         t0 = time.perf_counter()
                         writer.write()
                         io_time += time.perf_counter() - t0
                         next_out += interval
-                    if self.t >= end - 1e-12 or (max_steps and self.steps >= max_steps):
+                    if self.t >= end - slack or (max_steps and self.steps >= max_steps):
                         break
                     dt = min(self.time_step(), end - self.t)
                     t0 = time.perf_counter()
