@@ -25,6 +25,28 @@ class IntegrationError(RuntimeError):
     """The scheme could not make a step (an adaptive step fell below dtMin)."""
 
 
+# ------------------------------------------------------------------------------ shared
+def make_copy_state(dim, continuity, to_saved):
+    """x0, v0, rho0 <- x, v, rho (``to_saved``), or back."""
+
+    @register_jitable
+    def copy(i, I, P):
+        for d in range(dim):
+            if to_saved:
+                I.x0[d, i] = I.x[d, i]
+                I.v0[d, i] = I.v[d, i]
+            else:
+                I.x[d, i] = I.x0[d, i]
+                I.v[d, i] = I.v0[d, i]
+        if continuity:
+            if to_saved:
+                I.rho0[i] = I.rho[i]
+            else:
+                I.rho[i] = I.rho0[i]
+
+    return copy
+
+
 # ------------------------------------------------------------------------------ explicit
 def make_symplectic_euler(dim, continuity, dtype):
     """Semi-implicit (symplectic) Euler of Becker & Teschner (2007), first order:
@@ -130,14 +152,6 @@ def make_runge_kutta(stages):
         zero = dtype(0)
 
         @register_jitable
-        def save(i, I, P):
-            for d in range(dim):
-                I.x0[d, i] = I.x[d, i]
-                I.v0[d, i] = I.v[d, i]
-            if continuity:
-                I.rho0[i] = I.rho[i]
-
-        @register_jitable
         def stage(i, I, P):
             s = int(I.w[S])
             for d in range(dim):
@@ -162,14 +176,6 @@ def make_runge_kutta(stages):
                 I.rho[i] = I.rho0[i] + P.dt * sr
 
         @register_jitable
-        def restore(i, I, P):
-            for d in range(dim):
-                I.x[d, i] = I.x0[d, i]
-                I.v[d, i] = I.v0[d, i]
-            if continuity:
-                I.rho[i] = I.rho0[i]
-
-        @register_jitable
         def error(i, I, P):
             ex = zero
             ev = zero
@@ -189,7 +195,7 @@ def make_runge_kutta(stages):
                 e = max(e, abs(sr) * I.w[S + 3])
             return zero, zero, P.dt * e
 
-        return save, stage, restore, error
+        return (make_copy_state(dim, continuity, True), stage, make_copy_state(dim, continuity, False), error)
 
     return factory
 
@@ -200,14 +206,6 @@ def make_midpoint(dim, continuity, dtype):
     state at t_n; dv_t, drho_t: the iterated midpoint derivatives (tilde v, tilde rho of the
     spec); w[0]: the relaxation weight of the previous iterate."""
     half, one = dtype(0.5), dtype(1)
-
-    @register_jitable
-    def begin(i, I, P):
-        for d in range(dim):
-            I.x0[d, i] = I.x[d, i]
-            I.v0[d, i] = I.v[d, i]
-        if continuity:
-            I.rho0[i] = I.rho[i]
 
     @register_jitable
     def guess(i, I, P):
@@ -260,7 +258,7 @@ def make_midpoint(dim, continuity, dtype):
         if continuity:
             I.rho[i] = I.rho0[i] + P.dt * I.drho_t[i]
 
-    return begin, guess, midstate, residual, relax, finish
+    return make_copy_state(dim, continuity, True), guess, midstate, residual, relax, finish
 
 
 # ------------------------------------------------------------------------------ schemes

@@ -140,20 +140,18 @@ def _make_reduce_kernel(fn):
             return 0.0, 0.0, 0.0
         out = cuda.device_array((3, n), dtype=np.float64)
         run[_blocks(n), THREADS](I, P, out)
-        return _reduce_rows(out)
+        return _reduce_rows(out, ("sum", "sum", "max"))
 
     return launch
 
 
-def _reduce_rows(out):
-    """(sum of row 0, sum of row 1, max of row 2) of a (3, n) device array."""
-    if _cp is not None:
-        o = _cp.asarray(out)
-        r = _cp.stack([o[0].sum(), o[1].sum(), o[2].max()]).get()
-    else:
-        o = out.copy_to_host()
-        r = (o[0].sum(), o[1].sum(), o[2].max())
-    return float(r[0]), float(r[1]), float(r[2])
+def _reduce_rows(out, ops):
+    """Each row of a (rows, n) device array reduced by its op ("sum" or "max"), on the
+    device with CuPy when present, else on the host."""
+    o = _cp.asarray(out) if _cp is not None else out.copy_to_host()
+    r = [getattr(o[k], op)() for k, op in enumerate(ops)]
+    r = _cp.stack(r).get() if _cp is not None else r
+    return tuple(float(v) for v in r)
 
 
 class CudaBackend:
@@ -223,10 +221,5 @@ class CudaBackend:
             return 0.0, 0.0, 0
         out = cuda.device_array((3, n), dtype=np.float64)
         _speeds[_blocks(n), THREADS](pset["x"], pset["v"], pset["dvdt"], out)
-        if _cp is not None:
-            o = _cp.asarray(out)
-            r = _cp.stack([o[0].max(), o[1].max(), o[2].sum()]).get()
-        else:
-            o = out.copy_to_host()
-            r = (o[0].max(), o[1].max(), o[2].sum())
-        return float(r[0]), float(r[1]), int(r[2])
+        vmax2, amax2, bad = _reduce_rows(out, ("max", "max", "sum"))
+        return vmax2, amax2, int(bad)
