@@ -1,4 +1,8 @@
 """wcsph: weakly compressible SPH for free-surface flows, on CPU (Numba) and NVIDIA GPUs."""
+from . import threads
+
+threads.configure()  # before any compiled loop starts Numba's threads
+
 from .config import CaseError, load, validate
 from .solver import Simulation, SimulationError
 

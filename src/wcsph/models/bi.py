@@ -38,9 +38,9 @@ from ..physics.renormalization import make_boundary_interpolation, make_shepard
 from ..physics.viscosity import VISCOUS_TERMS, make_boundary_viscosity
 from ..physics.wall_corrections import make_wall_corrections
 
-FluidView = namedtuple("BIFluidView", "x v dvdt rho drhodt p vol m gamma cell start")
+FluidView = namedtuple("FluidView", "x v dvdt rho drhodt p vol m gamma cell start")
 ElementView = namedtuple("ElementView", "x v n elementSize p rho cell start")
-Params = namedtuple("BIParams", "rc2 h_inv w_norm g_norm rho0 rho0_inv c2 p0 eos_b gamma gamma_inv "
+Params = namedtuple("Params", "rc2 h_inv w_norm g_norm rho0 rho0_inv c2 p0 eos_b gamma gamma_inv "
                                 "gx gy gz dt delta_hc0 eps_h2 visc wall_visc r_box2 min_dist elastic")
 
 

@@ -53,9 +53,9 @@ def make_artificial_viscosity(ctx):
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         vz = (I.v[2, i] - J.v[2, j]) * dz if dim == 3 else zero
-        vx = (I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz
-        if vx >= zero:
-            return acc
+        # only approaching pairs (v_ij . x_ij < 0); a min, not a branch, keeps the loop
+        # vectorised (an early return made the whole pass 3.8 times slower)
+        vx = min((I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz, zero)
         rho_i, rho_j = I.rho[i], J.rho[j]
         f = P.visc * two * rho_i * rho_j / (rho_i + rho_j) * vx / (r * r + P.eps_h2) * grad(r, P) * J.vol[j]
         return add_force(acc, f * dx, f * dy, f * dz)
@@ -110,12 +110,10 @@ def make_boundary_viscosity(ctx, artificial):
         uy = I.v[1, i] - J.v[1, j]
         uz = I.v[2, i] - J.v[2, j] if dim == 3 else zero
         nz = J.n[2, j] if dim == 3 else zero
-        if artificial and ux * J.n[0, j] + uy * J.n[1, j] + uz * nz <= zero:
-            return acc
         d = dx * J.n[0, j] + dy * J.n[1, j] + dz * nz
         f = P.wall_visc * d / (d * d + P.eps_h2) * w(r, P) * J.elementSize[j]
-        if artificial:
-            f *= I.rho[i]
+        if artificial:  # compile-time choice; the approach test is a select, not a branch
+            f *= I.rho[i] if ux * J.n[0, j] + uy * J.n[1, j] + uz * nz > zero else zero
         return add_force(acc, f * ux, f * uy, f * uz)
 
     return term
