@@ -1,9 +1,14 @@
 """CPU backend: Numba ``parallel=True`` loops over a cell list of particles physically
 reordered by cell (counting sort every step), so neighbours are read sequentially."""
 import numpy as np
+import numba
 from numba import njit, prange
 
 from .walk import make_run_visitor
+
+
+#: particles per chunk of the dynamically scheduled pass loops (measured: 32-128 equally good)
+CHUNK = 128
 
 
 @njit(parallel=True, fastmath=True, cache=True)
@@ -82,7 +87,13 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True):
     """The one CPU neighbour loop: for each particle i of set I, visit the particles of
     J1 (and J2 when ``use2``) within the support radius, fold them into an accumulator with
     ``pair*``, then store it with ``finish``. Per cell row the three x-adjacent cells are
-    one contiguous run of sorted particles."""
+    one contiguous run of sorted particles.
+
+    Particles are handed to the threads in chunks of ``CHUNK`` as they free up, not in one
+    equal share each: the cost per particle varies (free surface, walls), and the static
+    split left one thread idle for a third of a 2,500-particle pass (538 -> 370 us). The
+    chunk size is a per-thread setting of Numba's scheduler that compiled code cannot set
+    and still be cached, hence the Python wrapper."""
     oz_lo, oz_hi = (-1, 2) if dim == 3 else (0, 1)
     visit1 = make_run_visitor(dim, pair1, zero, inline="always")
     visit2 = make_run_visitor(dim, pair2, zero, inline="always")
@@ -103,7 +114,14 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True):
                         acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - 1], J2.start[cc + 2], P, acc)
             finish(i, I, P, acc)
 
-    return run
+    def chunked(I, J1, J2, P, G):
+        previous = numba.set_parallel_chunksize(CHUNK)
+        try:
+            run(I, J1, J2, P, G)
+        finally:
+            numba.set_parallel_chunksize(previous)
+
+    return chunked
 
 
 def _make_map_loop(fn):
