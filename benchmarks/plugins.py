@@ -1,0 +1,54 @@
+"""The cost of each plug-in choice: the step rate of the 2D dam break of each model at about
+25 k fluid particles with one slot changed at a time, as the ratio of each choice's step
+time to the cheapest choice of the same slot (issue 9's goal: no choice above ~1.3).
+
+    python benchmarks/plugins.py [--size 25000] [--seconds 3]
+"""
+import argparse
+
+from _measure import host, rate, setup
+
+#: slot -> [(label, overrides)]; the first entry of each model is its shipped setting
+SLOTS = {
+    "dam_break_2d_bi": {
+        "ViscousTerm": [(v, [("model.ViscousTerm", v)]) for v in
+                        ("None", "ArtificialViscosity", "PhysicalViscosity_MVT", "PhysicalViscosity_MGVT")],
+        "DiffusiveTerm": [(v, [("model.DiffusiveTerm", v)]) for v in
+                          ("None", "MolteniDiffusiveTerm", "FourtakasDiffusiveTerm")],
+        "BCType": [(v, [("model.BCType", v)]) for v in ("BIConservative_numeric", "BIConsistent_numeric")],
+        "EOS": [(v, [("model.EOS", v)]) for v in ("ColeEquationOfState", "LinearizedColeEquationOfState")],
+        "wall corrections": [("none", [("model.enableElasticBounce", False), ("model.enableShifting", False)]),
+                             ("elastic bounce", [("model.enableElasticBounce", True), ("model.enableShifting", False)]),
+                             ("bounce + NBVC-PST", [("model.enableElasticBounce", True),
+                                                    ("model.enableShifting", True)])],
+    },
+    "dam_break_2d": {
+        "xsph": [("off", [("model.xsph", 0.0)]), ("0.05", [("model.xsph", 0.05)])],
+        "wall_xsph": [("off", [("model.wall_xsph", 0.0)]), ("0.05", [("model.wall_xsph", 0.05)])],
+    },
+}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--size", type=int, default=25_000)
+    ap.add_argument("--seconds", type=float, default=3.0)
+    args = ap.parse_args()
+    print(host())
+    print("| case | slot | choice | ms/step | M particle-steps/s | time / cheapest of the slot |")
+    print("|---|---|---|---:|---:|---:|")
+    for case, slots in SLOTS.items():
+        for slot, choices in slots.items():
+            rows = []
+            for label, overrides in choices:
+                sim = setup(case, args.size, overrides)
+                t, r = rate(sim, args.seconds)
+                rows.append((label, t, r))
+            cheapest = min(t for _, t, _ in rows)
+            for label, t, r in rows:
+                print(f"| {case} | {slot} | {label} | {t * 1e3:.2f} | {r / 1e6:.2f} | {t / cheapest:.2f} |",
+                      flush=True)
+
+
+if __name__ == "__main__":
+    main()
