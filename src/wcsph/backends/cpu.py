@@ -19,17 +19,17 @@ CHUNK = 128
 
 
 @njit(parallel=True, fastmath=True, cache=True)
-def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, cell):
+def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
     dim = x.shape[0]
     for i in prange(x.shape[1]):
         cx = np.int64(np.floor((x[0, i] - origin[0]) * inv_cell))
         cy = np.int64(np.floor((x[1, i] - origin[1]) * inv_cell))
-        cz = np.int64(1)
+        cz = np.int64(k)
         if dim == 3:
             cz = np.int64(np.floor((x[2, i] - origin[2]) * inv_cell))
-        inside = 1 <= cx < nx - 1 and 1 <= cy < ny - 1
+        inside = k <= cx < nx - k and k <= cy < ny - k
         if dim == 3:
-            inside = inside and 1 <= cz < nz - 1
+            inside = inside and k <= cz < nz - k
         else:
             cz = 0
         cell[i] = cx + nx * (cy + ny * cz) if inside else ncells
@@ -101,24 +101,25 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True):
     split left one thread idle for a third of a 2,500-particle pass (538 -> 370 us). The
     chunk size is a per-thread setting of Numba's scheduler that compiled code cannot set
     and still be cached, hence the Python wrapper."""
-    oz_lo, oz_hi = (-1, 2) if dim == 3 else (0, 1)
     visit1 = make_run_visitor(dim, pair1, zero, inline="always")
     visit2 = make_run_visitor(dim, pair2, zero, inline="always")
 
     @njit(parallel=True, fastmath=True, cache=cache)
     def run(I, J1, J2, P, G):
+        k = G.k
+        kz = k if dim == 3 else 0
         for i in prange(I.x.shape[1]):
             c = I.cell[i]
             xi = I.x[0, i]
             yi = I.x[1, i]
             zi = I.x[2, i] if dim == 3 else zero
             acc = init(i, I, P)
-            for oz in range(oz_lo, oz_hi):
-                for oy in range(-1, 2):
+            for oz in range(-kz, kz + 1):
+                for oy in range(-k, k + 1):
                     cc = c + oy * G.sy + oz * G.sz
-                    acc = visit1(i, xi, yi, zi, I, J1, J1.start[cc - 1], J1.start[cc + 2], P, acc)
+                    acc = visit1(i, xi, yi, zi, I, J1, J1.start[cc - k], J1.start[cc + k + 1], P, acc)
                     if use2:
-                        acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - 1], J2.start[cc + 2], P, acc)
+                        acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - k], J2.start[cc + k + 1], P, acc)
             finish(i, I, P, acc)
 
     def chunked(I, J1, J2, P, G):
@@ -217,7 +218,7 @@ class CpuBackend:
             pset["start"] = np.empty(g.ncells + 2, dtype=np.uint64)
         cell, start = pset["cell"], pset["start"]
         perm = np.empty(pset.n, dtype=np.int64)
-        _cell_ids(x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, cell)
+        _cell_ids(x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell)
         _counting_sort(cell, g.ncells, start, perm)
         for k in pset.sorted_fields():
             a = pset[k]

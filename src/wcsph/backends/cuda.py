@@ -29,17 +29,17 @@ def _blocks(n):
 
 
 @cuda.jit
-def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, cell):
+def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
     i = cuda.grid(1)
     if i >= x.shape[1]:
         return
     cx = int(math.floor((x[0, i] - origin[0]) * inv_cell))
     cy = int(math.floor((x[1, i] - origin[1]) * inv_cell))
-    inside = 1 <= cx < nx - 1 and 1 <= cy < ny - 1
+    inside = k <= cx < nx - k and k <= cy < ny - k
     cz = 0
     if x.shape[0] == 3:
         cz = int(math.floor((x[2, i] - origin[2]) * inv_cell))
-        inside = inside and 1 <= cz < nz - 1
+        inside = inside and k <= cz < nz - k
     cell[i] = cx + nx * (cy + ny * cz) if inside else ncells
 
 
@@ -79,7 +79,6 @@ def _speeds(x, v, a, out):
 
 def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero):
     """The one CUDA neighbour loop, the same walk as the CPU backend's, one thread per i."""
-    oz_lo, oz_hi = (-1, 2) if dim == 3 else (0, 1)
     visit1 = make_run_visitor(dim, pair1, zero)
     visit2 = make_run_visitor(dim, pair2, zero)
 
@@ -93,12 +92,14 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero):
         yi = I.x[1, i]
         zi = I.x[2, i] if dim == 3 else zero
         acc = init(i, I, P)
-        for oz in range(oz_lo, oz_hi):
-            for oy in range(-1, 2):
+        k = G.k
+        kz = k if dim == 3 else 0
+        for oz in range(-kz, kz + 1):
+            for oy in range(-k, k + 1):
                 cc = c + oy * G.sy + oz * G.sz
-                acc = visit1(i, xi, yi, zi, I, J1, J1.start[cc - 1], J1.start[cc + 2], P, acc)
+                acc = visit1(i, xi, yi, zi, I, J1, J1.start[cc - k], J1.start[cc + k + 1], P, acc)
                 if use2:
-                    acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - 1], J2.start[cc + 2], P, acc)
+                    acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - k], J2.start[cc + k + 1], P, acc)
         finish(i, I, P, acc)
 
     def launch(I, J1, J2, P, G):
@@ -186,7 +187,7 @@ class CudaBackend:
         cell = pset["cell"]
         if n:
             _cell_ids[_blocks(n), THREADS](x, cuda.to_device(origin), inv_cell, g.nx, g.ny, g.nz,
-                                            g.ncells, cell)
+                                            g.ncells, g.k, cell)
         if _cp is not None:
             c = _cp.asarray(cell)
             perm_c = _cp.argsort(c, kind="stable") if n else _cp.zeros(0, dtype=_cp.int64)
