@@ -205,7 +205,7 @@ def test_spec_parameter_names_and_derived_defaults():
     assert load("dam_break_2d_bi", [("parameters.delta", 0.2)])["model"]["delta"] == 0.2
     # left at 0: h = 2 dp, searchRadius = 2h, mass = rho0 dp^2, element size dp
     sim = wcsph.Simulation(load("hydrostatic_2d_bi"))
-    assert sim.h == pytest.approx(0.04) and sim.grid.cell_size == pytest.approx(0.08)
+    assert sim.h == pytest.approx(0.04) and sim.grid.support == pytest.approx(0.08)
     assert sim.mass == pytest.approx(1000 * 0.02**2)
     assert np.allclose(sim.host(sim.walls, "elementSize")[0], 0.02)
 

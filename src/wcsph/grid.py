@@ -41,6 +41,11 @@ class Grid:
         return cls(dim, lo - reach * cell_size, float(cell_size), shape, int(reach))
 
     @property
+    def support(self):
+        """The search radius the grid was made for."""
+        return self.cell_size * self.reach
+
+    @property
     def ncells(self):
         return int(np.prod(self.shape))
 

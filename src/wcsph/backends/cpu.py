@@ -90,7 +90,7 @@ def _check(x, v, a):
     return vmax2, amax2, bad
 
 
-def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True):
+def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, branchless=False):
     """The one CPU neighbour loop: for each particle i of set I, visit the particles of
     J1 (and J2 when ``use2``) within the support radius, fold them into an accumulator with
     ``pair*``, then store it with ``finish``. Per cell row the three x-adjacent cells are
@@ -101,8 +101,8 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True):
     split left one thread idle for a third of a 2,500-particle pass (538 -> 370 us). The
     chunk size is a per-thread setting of Numba's scheduler that compiled code cannot set
     and still be cached, hence the Python wrapper."""
-    visit1 = make_run_visitor(dim, pair1, zero, inline="always")
-    visit2 = make_run_visitor(dim, pair2, zero, inline="always")
+    visit1 = make_run_visitor(dim, pair1, zero, inline="always", branchless=branchless)
+    visit2 = make_run_visitor(dim, pair2, zero, inline="always", branchless=branchless)
 
     @njit(parallel=True, fastmath=True, cache=cache)
     def run(I, J1, J2, P, G):
@@ -188,13 +188,14 @@ class CpuBackend:
     def to_host(self, a):
         return np.asarray(a)
 
-    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True):
+    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False):
         """The compiled loop of one pass. ``cache=False`` for passes whose set or parameter
         types live outside the package (Numba's cache index of the loop is shared by all its
-        closures and must unpickle in every process)."""
+        closures and must unpickle in every process). ``branchless``: a performance choice
+        of the pass (see ``walk.make_run_visitor``); the result is the same."""
         use2 = pair2 is not None
         return _make_pass_loop(dim, init, pair1, pair2 if use2 else pair1, finish, use2,
-                               np.dtype(dtype).type(0), cache)
+                               np.dtype(dtype).type(0), cache, branchless)
 
     def make_map(self, fn):
         return _make_map_loop(fn)

@@ -164,9 +164,10 @@ class CudaBackend:
     def to_host(self, a):
         return a.copy_to_host() if hasattr(a, "copy_to_host") else np.asarray(a)
 
-    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True):
+    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False):
         """Same interface as the CPU backend; ``cache`` has no effect (kernels compile per
-        process)."""
+        process), nor ``branchless`` (a thread that skips a pair frees its warp's lane: the
+        branch is the faster form on a GPU)."""
         use2 = pair2 is not None
         return _make_pass_kernel(dim, init, pair1, pair2 if use2 else pair1, finish, use2,
                                  np.dtype(dtype).type(0))

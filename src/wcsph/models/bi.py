@@ -135,7 +135,12 @@ class WCSPHBI:
             walls.append(make_boundary_viscosity(ctx, m["ViscousTerm"] == "ArtificialViscosity"))
         if self.consistent:
             fluid.append(make_shepard(ctx))
-        self.interaction = mk(dim, self.dtype, init6, compose(*fluid), finalize, pair2=compose(*walls))
+        # the heaviest pass. Its terms evaluated for every candidate, without a branch
+        # (backends/walk.py), measured against the branch in one process: 2D dam break
+        # 1.27 times faster at 2.5 k and 100 k; 2D hydrostatic (Fourtakas' pow per pair)
+        # 0.96; 3D (4.5 candidates per neighbour) 0.90. Hence in 2D only.
+        self.interaction = mk(dim, self.dtype, init6, compose(*fluid), finalize, pair2=compose(*walls),
+                              branchless=dim == 2)
 
         bounce, shift = m["enableElasticBounce"], m["enableShifting"]
         self.correction = None
