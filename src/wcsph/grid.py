@@ -14,7 +14,7 @@ for 50 neighbours) WCSPH-BI 1.16-1.18 times, classic 1.0-1.07. The extra cell id
 sorting puts them last, where the driver drops them (as DualSPHysics excludes them).
 """
 from collections import namedtuple
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,6 +29,8 @@ class Grid:
     cell_size: float
     shape: tuple  # cells per axis, ghosts included; 1 in z for 2D
     reach: int = 2  # cells per kernel support (and ghost layers)
+    _view: GridView = field(default=None, repr=False, compare=False)
+    _geometry: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
     def covering(cls, lo, hi, support, reach=2):
@@ -50,12 +52,17 @@ class Grid:
         return int(np.prod(self.shape))
 
     def view(self):
-        nx, ny, nz = self.shape
-        return GridView(np.int64(nx), np.int64(ny), np.int64(nz), np.int64(nx),
-                        np.int64(nx * ny), np.int64(self.ncells), np.int64(self.reach))
+        """The grid as compiled loops take it (made once: the sort asks every step)."""
+        if self._view is None:
+            nx, ny, nz = self.shape
+            self._view = GridView(np.int64(nx), np.int64(ny), np.int64(nz), np.int64(nx),
+                                  np.int64(nx * ny), np.int64(self.ncells), np.int64(self.reach))
+        return self._view
 
     def geometry(self, dtype):
         """Origin and inverse cell size in the working dtype, for the cell-index kernel."""
-        o = np.zeros(3, dtype=dtype)
-        o[: self.dim] = self.origin
-        return o, dtype(1.0 / self.cell_size)
+        if dtype not in self._geometry:
+            o = np.zeros(3, dtype=dtype)
+            o[: self.dim] = self.origin
+            self._geometry[dtype] = (o, dtype(1.0 / self.cell_size))
+        return self._geometry[dtype]

@@ -13,13 +13,25 @@ class ParticleSet:
         self.name = name
         self.dim = dim
         self.arrays = dict(arrays)
+        self._sorted = None  # sorted_fields(), kept until a field is added or n changes
         self.n = self.arrays["x"].shape[1]
         self.scratch = set()  # fields recomputed before they are read: sorting skips them
+
+    @property
+    def n(self):
+        return self._n
+
+    @n.setter
+    def n(self, value):
+        self._n = value
+        self._sorted = None
 
     def __getitem__(self, key):
         return self.arrays[key]
 
     def __setitem__(self, key, value):
+        if key not in self.arrays:
+            self._sorted = None
         self.arrays[key] = value
 
     def add(self, key, shape_kind, dtype, backend, fill=0.0, scratch=False):
@@ -32,6 +44,7 @@ class ParticleSet:
         else:
             shape = (self.n,) if shape_kind == "scalar" else (self.dim, self.n)
         self.arrays[key] = backend.to_device(np.full(shape, fill, dtype=dtype))
+        self._sorted = None
         if scratch:
             self.scratch.add(key)
 
@@ -42,7 +55,9 @@ class ParticleSet:
 
     def sorted_fields(self):
         """The per-particle arrays a sort must reorder: all but the scratch fields."""
-        return [k for k in self.per_particle() if k not in self.scratch]
+        if self._sorted is None:
+            self._sorted = [k for k in self.per_particle() if k not in self.scratch]
+        return self._sorted
 
     def view(self, cls):
         return cls(**{f: self.arrays[f] for f in cls._fields})
