@@ -5,39 +5,15 @@ checks) in fluid particle-steps per second, for the 2D dam breaks at about 25 k,
     python benchmarks/bench.py [--models classic bi] [--precision float32] [--backend cpu]
                                [--sizes 25000 100000 400000] [--size-3d 100000]
 
-Compilation (or loading Numba's cache) happens in warm-up steps before timing.
+Compilation (or loading Numba's cache) happens in warm-up steps before timing. The last
+column is the rate relative to the first row, measured in the same run (hosts of one kind
+differ by 2x in absolute figures; ratios measured side by side hold).
 """
 import argparse
-import time
 
-import numpy as np
+from _measure import host, rate, setup
 
-import wcsph
-from wcsph.config import load
-
-COLUMN = {"dam_break_2d": 1.0 * 2.0, "dam_break_3d": 0.3 * 0.4 * 0.6,
-          "dam_break_2d_bi": 0.6 * 0.3, "dam_break_3d_bi": 0.3 * 0.4 * 0.6}
 CASES = {"classic": ("dam_break_2d", "dam_break_3d"), "bi": ("dam_break_2d_bi", "dam_break_3d_bi")}
-
-
-def measure(name, n_target, precision, backend, budget_s):
-    dim = 2 if "_2d" in name else 3
-    dp = (COLUMN[name] / n_target) ** (1.0 / dim)
-    case = load(name, [("dp", dp), ("precision", precision), ("backend", backend)])
-    t0 = time.perf_counter()
-    sim = wcsph.Simulation(case)
-    for _ in range(3):
-        sim.step(sim.time_step())
-    setup = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    steps = 0
-    while steps < 10 or time.perf_counter() - t0 < budget_s:
-        sim.step(sim.time_step())
-        steps += 1
-    elapsed = time.perf_counter() - t0
-    return {"case": name, "dim": dim, "dp": dp, "n_fluid": sim.fluid.n, "n_walls": sim.walls.n,
-            "ms_per_step": 1e3 * elapsed / steps, "mps": sim.fluid.n * steps / elapsed / 1e6,
-            "setup_s": setup, "steps": steps}
 
 
 def main():
@@ -53,13 +29,16 @@ def main():
     for model in args.models:
         two, three = CASES[model]
         runs += [(two, n) for n in args.sizes] + ([(three, args.size_3d)] if args.size_3d else [])
-    print(f"{args.precision} on {args.backend}")
-    print("| case | fluid particles | wall particles | ms/step | M particle-steps/s | ms/step per 100k |")
+    print(f"{args.precision} on {args.backend}; {host()}")
+    print("| case | fluid particles | wall particles | ms/step | M particle-steps/s | rate / first row |")
     print("|---|---:|---:|---:|---:|---:|")
+    first = None
     for name, n in runs:
-        r = measure(name, n, args.precision, args.backend, args.seconds)
-        print(f"| {r['case']} | {r['n_fluid']:,} | {r['n_walls']:,} | {r['ms_per_step']:.2f} | "
-              f"{r['mps']:.2f} | {r['ms_per_step'] / r['n_fluid'] * 1e5:.2f} |", flush=True)
+        sim = setup(name, n, precision=args.precision, backend=args.backend)
+        t, r = rate(sim, args.seconds)
+        first = first or r
+        print(f"| {name} | {sim.fluid.n:,} | {sim.walls.n:,} | {t * 1e3:.2f} | {r / 1e6:.2f} | {r / first:.2f} |",
+              flush=True)
 
 
 if __name__ == "__main__":

@@ -2,9 +2,11 @@
 25 k fluid particles with one slot changed at a time, as the ratio of each choice's step
 time to the cheapest choice of the same slot (issue 9's goal: no choice above ~1.3).
 
-    python benchmarks/plugins.py [--size 25000] [--seconds 3]
+    python benchmarks/plugins.py [--size 25000] [--seconds 3] [--rounds 6]
 """
 import argparse
+
+import numpy as np
 
 from _measure import host, rate, setup
 
@@ -32,21 +34,25 @@ SLOTS = {
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--size", type=int, default=25_000)
-    ap.add_argument("--seconds", type=float, default=3.0)
+    ap.add_argument("--seconds", type=float, default=3.0, help="stepping per choice, all rounds")
+    ap.add_argument("--rounds", type=int, default=6)
     args = ap.parse_args()
     print(host())
     print("| case | slot | choice | ms/step | M particle-steps/s | time / cheapest of the slot |")
     print("|---|---|---|---:|---:|---:|")
     for case, slots in SLOTS.items():
         for slot, choices in slots.items():
-            rows = []
-            for label, overrides in choices:
-                sim = setup(case, args.size, overrides)
-                t, r = rate(sim, args.seconds)
-                rows.append((label, t, r))
+            # every choice of the slot set up side by side and timed in turns, the median of
+            # the rounds kept: a shared host's load drifts by 20 % within a minute
+            sims = [(label, setup(case, args.size, overrides)) for label, overrides in choices]
+            times = {label: [] for label, _ in sims}
+            for _ in range(args.rounds):
+                for label, sim in sims:
+                    times[label].append(rate(sim, args.seconds / args.rounds, windows=1)[0])
+            rows = [(label, float(np.median(times[label])), sim.fluid.n) for label, sim in sims]
             cheapest = min(t for _, t, _ in rows)
-            for label, t, r in rows:
-                print(f"| {case} | {slot} | {label} | {t * 1e3:.2f} | {r / 1e6:.2f} | {t / cheapest:.2f} |",
+            for label, t, n in rows:
+                print(f"| {case} | {slot} | {label} | {t * 1e3:.2f} | {n / t / 1e6:.2f} | {t / cheapest:.2f} |",
                       flush=True)
 
 
