@@ -1,35 +1,75 @@
 """The ``wcsph`` command."""
 import argparse
 import json
+import os
 import sys
 
 from .config import CaseError, load, parse_override, read_toml, resolve, shipped_cases
 
 
+EXAMPLES = """examples:
+  wcsph cases                                  list the shipped cases
+  wcsph show dam_break_2d > my_case.toml       start a case of your own from a shipped one
+  wcsph run dam_break_2d                       run it; results in runs/dam_break_2d/
+  wcsph run my_case.toml -o runs/mine --dp 0.005 --end-time 0.5
+  wcsph run dam_break_2d_bi --set model.ViscousTerm=\"PhysicalViscosity_MVT\" --set time.cfl=0.2
+  wcsph run dam_break_3d --backend cuda        on an NVIDIA GPU (pip install -e ".[cuda]")
+
+Ctrl-C (or SIGTERM) stops a run after the current step and writes its state; exit codes:
+0 done, 2 bad input, 3 the run blew up, 130 interrupted."""
+
+
 def _parser():
-    p = argparse.ArgumentParser(prog="wcsph", description="Weakly compressible SPH solver.")
-    sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="run a case (a TOML file or a shipped case name)")
-    r.add_argument("case")
+    from . import __version__
+
+    p = argparse.ArgumentParser(prog="wcsph", description="Weakly compressible SPH solver for free-surface "
+                                "flows (classic WCSPH and WCSPH-BI), on the CPU or an NVIDIA GPU.",
+                                epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--version", action="version", version=f"wcsph {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    r = sub.add_parser("run", help="run a case (a TOML file or a shipped case name)",
+                       description="Run a case: a TOML file or the name of a shipped case (wcsph cases).",
+                       epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    r.add_argument("case", help="a case file (.toml) or a shipped case name")
     r.add_argument("--output", "-o", default=None, help="output directory (default: runs/NAME)")
     r.add_argument("--end-time", type=float, default=None, help="override time.end")
     r.add_argument("--dp", type=float, default=None, help="override the particle spacing dp")
     r.add_argument("--backend", choices=["cpu", "cuda"], default=None)
     r.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                    help="override a case value by its dotted key, e.g. model.xsph=0.05")
-    r.add_argument("--no-progress", action="store_true")
+    r.add_argument("--no-progress", action="store_true", help="plain log lines instead of a progress bar")
     sub.add_parser("cases", help="list the shipped cases")
+    sh = sub.add_parser("show", help="print a shipped case as TOML (to start a case of your own)")
+    sh.add_argument("case", help="a shipped case name or a case file")
     return p
 
 
 def main(argv=None):
+    try:
+        return _main(argv)
+    except BrokenPipeError:  # e.g. ``wcsph cases | head -1``: the reader has gone
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:
+            pass
+        return 0
+
+
+def _main(argv):
     args = _parser().parse_args(argv)
     if args.command == "cases":
         for name in shipped_cases():
             desc = read_toml(resolve(name)).get("description", "")
             print(f"{name:20s} {desc}")
         return 0
-    from .solver import Simulation, SimulationError
+    if args.command == "show":
+        try:
+            print(resolve(args.case).read_text(), end="")
+        except CaseError as e:
+            print(f"wcsph: error: {e}", file=sys.stderr)
+            return 2
+        return 0
+    from .solver import RunInterrupted, Simulation, SimulationError
 
     try:
         overrides = [parse_override(s) for s in args.sets]
@@ -52,10 +92,15 @@ def main(argv=None):
     except SimulationError as e:
         print(f"wcsph: run stopped: {e}", file=sys.stderr)
         return 3
+    except RunInterrupted as e:
+        print(f"wcsph: interrupted: {e}; run.json in {out} says \"interrupted\"", file=sys.stderr)
+        return 130
     print(f"done: {summary['steps']} steps to t = {summary['end_time']:.4g} s in "
           f"{summary['wall_time_s']:.1f} s (compile/load {summary['compile_time_s']:.1f} s, "
           f"output {summary['io_time_s']:.1f} s); "
           f"{summary['particle_steps_per_s'] / 1e6:.2f} M particle-steps/s")
+    opened = "case.pvd" if case["output"]["vtk"] else "probes.csv"
+    print(f"results in {out}/: open {out}/{opened} in ParaView; time series in {out}/probes.csv")
     if summary["dropped"]:
         print(f"note: {summary['dropped']} particles left the domain and were removed")
     print(json.dumps({k: summary[k] for k in ("n_fluid", "n_boundary", "steps")}))

@@ -1,6 +1,8 @@
 """The simulation driver: set-up from a case, the time loop, checks and output."""
 import json
 import math
+import signal
+import threading
 import time
 from pathlib import Path
 
@@ -20,6 +22,38 @@ from .progress import Progress
 
 class SimulationError(RuntimeError):
     """The run stopped on a non-physical state (NaN, runaway velocity)."""
+
+
+class RunInterrupted(RuntimeError):
+    """The run was stopped by Ctrl-C or SIGTERM; its state at the last full step is written."""
+
+
+class _StopRequest:
+    """While active, Ctrl-C (SIGINT) and SIGTERM only ask the time loop to stop after the
+    current step, so that the state written is a whole step's; a second Ctrl-C stops at once.
+    Outside the main thread (where Python allows no signal handlers) it does nothing."""
+
+    NAMES = {signal.SIGINT: "Ctrl-C (SIGINT)", signal.SIGTERM: "SIGTERM"}
+
+    def __init__(self):
+        self.signal = None
+        self._previous = {}
+
+    def _handle(self, signum, frame):
+        if self.signal is not None and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.signal = self.NAMES.get(signum, f"signal {signum}")
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            for sig in self.NAMES:
+                self._previous[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def __exit__(self, *exc):
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        return False
 
 
 class Simulation:
@@ -209,14 +243,25 @@ class Simulation:
         compile_time = None
         t_loop = None
         status, message = "completed", ""
+        stop = _StopRequest()
         try:
-            with Progress(end, enabled=show) as bar:
+            with Progress(end, enabled=show) as bar, stop:
                 while True:
+                    written = False
                     if writer is not None and self.t >= next_out - slack:
                         t0 = time.perf_counter()
                         writer.write()
                         io_time += time.perf_counter() - t0
                         next_out += interval
+                        written = True
+                    if stop.signal is not None:
+                        status = "interrupted"
+                        message = (f"stopped by {stop.signal} at t = {self.t:.6g} s (step {self.steps})")
+                        if writer is not None:
+                            if not written:
+                                writer.write()
+                            message += f"; state written to {writer.last_good}"
+                        break
                     if self.t >= end - slack or (max_steps and self.steps >= max_steps):
                         break
                     dt = min(self.time_step(), end - self.t)
@@ -253,6 +298,8 @@ class Simulation:
             writer.close(summary)
         if status == "failed":
             raise SimulationError(message)
+        if status == "interrupted":
+            raise RunInterrupted(message)
         return summary
 
 
@@ -262,6 +309,10 @@ class Output:
     def __init__(self, sim, out, oc):
         self.sim, self.out, self.oc = sim, out, oc
         out.mkdir(parents=True, exist_ok=True)
+        # frames of an earlier run in the same directory would sit beside the new series
+        # without being listed in it
+        for old in list(out.glob("fluid_[0-9]*.vtu")) + list(out.glob("fluid_failed.vtu")):
+            old.unlink()
         self.entries = []
         self.count = 0
         self.last_good = "(none written)"
@@ -324,4 +375,4 @@ class Output:
         self.probes.close()
         if self.steps_log is not None:
             self.steps_log.close()
-        (self.out / "run.json").write_text(json.dumps(summary, indent=2) + "\n")
+        vtk.write_text(self.out / "run.json", json.dumps(summary, indent=2) + "\n")

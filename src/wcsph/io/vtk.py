@@ -1,10 +1,39 @@
 """ParaView output: one .vtu per output time for the fluid (written with meshio), one .vtu
-for the static walls, and .pvd collections that tie them into a time series."""
+for the static walls, and .pvd collections that tie them into a time series. Every file is
+written atomically (``atomic``): a run killed at any moment leaves each file either whole or
+absent, never truncated."""
+import os
 import xml.etree.ElementTree as ET
+from contextlib import contextmanager
 from pathlib import Path
 
 import meshio
 import numpy as np
+
+
+@contextmanager
+def atomic(path):
+    """Yield a temporary path beside ``path``; on success rename it to ``path`` (an atomic
+    replace on POSIX and Windows), on failure remove it."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        raise
+
+
+def write_text(path, text):
+    with atomic(path) as tmp:
+        with open(tmp, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
 
 
 def write_points(path, x, point_data):
@@ -21,7 +50,8 @@ def write_points(path, x, point_data):
             a = v
         data[k] = a
     mesh = meshio.Mesh(pts, [("vertex", np.arange(n).reshape(-1, 1))], point_data=data)
-    mesh.write(path, file_format="vtu")
+    with atomic(path) as tmp:
+        mesh.write(tmp, file_format="vtu")
 
 
 def write_pvd(path, entries):
@@ -31,4 +61,5 @@ def write_pvd(path, entries):
     for t, part, name in entries:
         ET.SubElement(coll, "DataSet", timestep=f"{t:.9g}", group="", part=str(part), file=name)
     ET.indent(root)
-    ET.ElementTree(root).write(Path(path), xml_declaration=True, encoding="utf-8")
+    with atomic(path) as tmp:
+        ET.ElementTree(root).write(tmp, xml_declaration=True, encoding="utf-8")
