@@ -3,6 +3,7 @@ import argparse
 import json
 import os
 import sys
+from pathlib import Path
 
 from .config import CaseError, load, parse_override, read_toml, resolve, shipped_cases
 
@@ -16,7 +17,8 @@ EXAMPLES = """examples:
   wcsph run dam_break_3d --backend cuda        on an NVIDIA GPU (pip install -e ".[cuda]")
 
 Ctrl-C (or SIGTERM) stops a run after the current step and writes its state; exit codes:
-0 done, 2 bad input, 3 the run blew up, 130 interrupted."""
+0 done, 2 bad input, 3 the run blew up, 130 interrupted. A stopped or finished run continues
+with: wcsph resume runs/dam_break_2d --end-time 2"""
 
 
 def _parser():
@@ -38,6 +40,14 @@ def _parser():
     r.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                    help="override a case value by its dotted key, e.g. model.xsph=0.05")
     r.add_argument("--no-progress", action="store_true", help="plain log lines instead of a progress bar")
+    rs = sub.add_parser("resume", help="continue a run from the checkpoint in its output directory",
+                        description="Continue a run from DIR/checkpoint.npz (written at the end of a run, at "
+                                    "a clean stop and every output.checkpoint_interval), bit for bit as if it "
+                                    "had not stopped; output continues in DIR.")
+    rs.add_argument("directory", help="the run's output directory (or a checkpoint .npz file)")
+    rs.add_argument("--end-time", type=float, default=None, help="run to this time (default: the case's)")
+    rs.add_argument("--output", "-o", default=None, help="output directory (default: DIR)")
+    rs.add_argument("--no-progress", action="store_true")
     sub.add_parser("cases", help="list the shipped cases")
     sh = sub.add_parser("show", help="print a shipped case as TOML (to start a case of your own)")
     sh.add_argument("case", help="a shipped case name or a case file")
@@ -71,17 +81,33 @@ def _main(argv):
         return 0
     from .solver import RunInterrupted, Simulation, SimulationError
 
+    out = None
     try:
-        overrides = [parse_override(s) for s in args.sets]
-        if args.end_time is not None:
-            overrides.append(("time.end", args.end_time))
-        if args.dp is not None:
-            overrides.append(("dp", args.dp))
-        if args.backend is not None:
-            overrides.append(("backend", args.backend))
-        case = load(args.case, overrides)
-        out = args.output or f"runs/{case['name']}"
-        sim = Simulation(case)
+        if args.command == "resume":
+            meta, arrays = Simulation.read_checkpoint(args.directory)
+            case = dict(meta["case"], _source=str(args.directory))
+            case["time"] = dict(case["time"], max_steps=0)  # a resumed run goes to its end time
+            if args.end_time is not None:
+                case["time"]["end"] = args.end_time
+            if case["time"]["end"] * (1 - 1e-9) <= meta["t"]:  # the time loop's own slack
+                raise CaseError(f"{args.directory}: the run already reached t = {meta['t']:.6g} s; "
+                                "give a later --end-time")
+            base = Path(args.directory)
+            out = args.output or str(base if base.is_dir() else base.parent)
+            sim = Simulation(case)
+            sim.restore(meta, arrays, source=str(args.directory))
+            print(f"resuming {case['name']} at t = {sim.t:.6g} s (step {sim.steps})", flush=True)
+        else:
+            overrides = [parse_override(s) for s in args.sets]
+            if args.end_time is not None:
+                overrides.append(("time.end", args.end_time))
+            if args.dp is not None:
+                overrides.append(("dp", args.dp))
+            if args.backend is not None:
+                overrides.append(("backend", args.backend))
+            case = load(args.case, overrides)
+            out = args.output or f"runs/{case['name']}"
+            sim = Simulation(case)
         print(f"{case['name']}: {case['dim']}D, dp = {case['dp']:g} m, {sim.fluid.n} fluid and "
               f"{sim.walls.n} wall particles, c0 = {sim.c0:.3g} m/s, {case['precision']} on "
               f"{sim.backend.name}; output in {out}", flush=True)
@@ -99,8 +125,9 @@ def _main(argv):
           f"{summary['wall_time_s']:.1f} s (compile/load {summary['compile_time_s']:.1f} s, "
           f"output {summary['io_time_s']:.1f} s); "
           f"{summary['particle_steps_per_s'] / 1e6:.2f} M particle-steps/s")
-    opened = "case.pvd" if case["output"]["vtk"] else "probes.csv"
-    print(f"results in {out}/: open {out}/{opened} in ParaView; time series in {out}/probes.csv")
+    paraview = f"open {out}/case.pvd in ParaView; " if case["output"]["vtk"] else ""
+    print(f"results in {out}/: {paraview}time series in {out}/probes.csv; continue with: wcsph resume {out} "
+          "--end-time T")
     if summary["dropped"]:
         print(f"note: {summary['dropped']} particles left the domain and were removed")
     print(json.dumps({k: summary[k] for k in ("n_fluid", "n_boundary", "steps")}))

@@ -144,6 +144,7 @@ SCHEMA = {
     "probes": ([PROBE], [], None),
     "output": ({
         "interval": ("float", 0.0, NONNEG),
+        "checkpoint_interval": ("float", 0.0, NONNEG),
         "vtk": ("bool", True, None),
         "surge_front": ("bool", False, None),
         "progress": ("bool", True, None),

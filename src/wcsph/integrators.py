@@ -272,6 +272,8 @@ class Integrator:
     order = None  # formal order of accuracy
     evaluations = 1  # derivative evaluations per step (a midpoint step: per iteration)
     reduce_maps = ()  # indices of the maps that are reductions, not per-particle updates
+    #: scalar attributes that carry from one step to the next (saved in checkpoints)
+    carried = ()
 
     def __init__(self, backend, dim, continuity, dtype, settings=None):
         self.backend, self.dim, self.continuity, self.dtype = backend, dim, continuity, dtype
@@ -287,6 +289,15 @@ class Integrator:
 
     def columns(self):
         return list(self.stats)
+
+    def carried_state(self):
+        """The scheme's scalars a restart needs, and its last per-step figures."""
+        return {"carried": {k: getattr(self, k) for k in self.carried}, "stats": dict(self.stats)}
+
+    def restore(self, state):
+        for k, v in state["carried"].items():
+            setattr(self, k, v)
+        self.stats = dict(state["stats"])
 
 
 class SymplecticEuler(Integrator):
@@ -306,6 +317,7 @@ class Verlet(Integrator):
     factory = staticmethod(make_verlet)
     fields = (("v0", "vector", False), ("rho0", "scalar", False))
     order = 2
+    carried = ("count",)
 
     def __init__(self, *a, **k):
         super().__init__(*a, **k)
@@ -348,6 +360,7 @@ class RungeKutta(Integrator):
     order solution is propagated (local extrapolation, as in Dormand & Prince 1980)."""
 
     A = b = b_hat = None
+    carried = ("dt_next",)
 
     def __init__(self, backend, dim, continuity, dtype, settings=None):
         self.factory = make_runge_kutta(len(self.b))
@@ -480,6 +493,7 @@ class ImplicitMidpoint(Integrator):
     fields = _SAVED + (("dv_t", "vector", False), ("drho_t", "scalar", False))
     order = 2
     reduce_maps = (3,)
+    carried = ("primed",)
 
     def __init__(self, *a, **k):
         super().__init__(*a, **k)

@@ -20,6 +20,20 @@ from .particles import ParticleSet
 from .progress import Progress
 
 
+#: the layout of checkpoint.npz; a checkpoint of another version is refused
+CHECKPOINT_VERSION = 1
+
+
+def case_fingerprint(case):
+    """A hash of what determines a run's state: the case without its end time, step limit,
+    output settings and source path (those may change on a restart)."""
+    import hashlib
+
+    keep = {k: v for k, v in case.items() if k not in ("_source", "output")}
+    keep["time"] = {k: v for k, v in case["time"].items() if k not in ("end", "max_steps")}
+    return hashlib.sha256(json.dumps(keep, sort_keys=True, default=str).encode()).hexdigest()
+
+
 class SimulationError(RuntimeError):
     """The run stopped on a non-physical state (NaN, runaway velocity)."""
 
@@ -123,6 +137,7 @@ class Simulation:
         self.dropped = 0
         self.vmax = float(np.max(np.linalg.norm(fluid_v, axis=0))) if n else 0.0
         self.amax = float(np.linalg.norm(self.gravity))
+        self._resumed_output = None  # the output series to continue, after a restart
         self.setup_time = time.perf_counter() - t_setup  # compiles (or loads) the loops
 
     def _default_sound_speed(self, x, v):
@@ -223,6 +238,64 @@ class Simulation:
     def host(self, pset, *names):
         return [self.backend.to_host(pset[k]) for k in names]
 
+    # ------------------------------------------------------------------------------ restarts
+    def save_checkpoint(self, path, output_state=None):
+        """Everything a restart needs to continue bit for bit, as one ``.npz`` (written
+        atomically): every per-particle array of the fluid, the time, the step count, the
+        speeds the next time step is taken from, the integrator's carried scalars (Verlet's
+        step count, RK45's next step, the midpoint's primed guess) and the output series."""
+        from . import __version__
+
+        meta = {"format": "wcsph checkpoint", "version": CHECKPOINT_VERSION, "wcsph": __version__,
+                "case": {k: v for k, v in self.case.items() if k != "_source"},
+                "fingerprint": case_fingerprint(self.case), "t": self.t, "steps": self.steps,
+                "evaluations": self.evaluations, "dropped": self.dropped, "vmax": self.vmax, "amax": self.amax,
+                "n": self.fluid.n, "integrator": self.integrator.carried_state(), "output": output_state}
+        arrays = {f"fluid.{k}": self.backend.to_host(self.fluid[k]) for k in self.fluid.per_particle()}
+        with vtk.atomic(path) as tmp:
+            with open(tmp, "wb") as f:
+                np.savez(f, meta=np.array(json.dumps(meta)), **arrays)
+
+    @staticmethod
+    def read_checkpoint(path):
+        """(meta, arrays) of a checkpoint; a CaseError when it is not one this version reads."""
+        path = Path(path)
+        if path.is_dir():
+            path = path / "checkpoint.npz"
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                meta = json.loads(str(data["meta"]))
+                arrays = {k.split(".", 1)[1]: data[k] for k in data.files if k.startswith("fluid.")}
+        except FileNotFoundError:
+            raise CaseError(f"{path}: no checkpoint there (runs write one at their end, at a clean stop "
+                            "and every output.checkpoint_interval)") from None
+        except (OSError, ValueError, KeyError) as e:
+            raise CaseError(f"{path}: not a readable wcsph checkpoint ({e})") from None
+        if meta.get("format") != "wcsph checkpoint" or meta.get("version") != CHECKPOINT_VERSION:
+            raise CaseError(f"{path}: checkpoint format version {meta.get('version')!r}; this wcsph reads "
+                            f"version {CHECKPOINT_VERSION}")
+        return meta, arrays
+
+    def restore(self, meta, arrays, source="checkpoint"):
+        """Continue from a checkpoint of the same case (``time.end``, ``time.max_steps`` and
+        ``[output]`` may differ)."""
+        if meta["fingerprint"] != case_fingerprint(self.case):
+            raise CaseError(f"{source}: the checkpoint is from another case or other settings "
+                            f"(case {meta['case'].get('name')!r}); restart it with the case it was written by")
+        be = self.backend
+        for k in self.fluid.per_particle():
+            if k not in arrays:
+                raise CaseError(f"{source}: the checkpoint lacks the fluid field {k!r}")
+        self.fluid.n = int(meta["n"])
+        for k, a in arrays.items():
+            self.fluid[k] = be.to_device(np.ascontiguousarray(a))
+        for k in [k for k in self.fluid.arrays if k.startswith("_")]:
+            del self.fluid.arrays[k]  # the sort's spare arrays, sized for the old count
+        self.t, self.steps, self.evaluations = meta["t"], meta["steps"], meta["evaluations"]
+        self.dropped, self.vmax, self.amax = meta["dropped"], meta["vmax"], meta["amax"]
+        self.integrator.restore(meta["integrator"])
+        self._resumed_output = meta["output"]
+
     # ------------------------------------------------------------------------------ running
     def run(self, output=None, end_time=None, progress=None):
         """Step to ``end_time`` (default the case's); write output to directory ``output``
@@ -232,12 +305,15 @@ class Simulation:
         oc = case["output"]
         interval = oc["interval"] or end / 20
         out = Path(output) if output is not None else None
-        writer = Output(self, out, oc) if out is not None else None
+        writer = Output(self, out, oc, self._resumed_output) if out is not None else None
         max_steps = case["time"]["max_steps"]
         show = oc["progress"] if progress is None else progress
 
         t_start = time.perf_counter()
-        next_out = self.t
+        resumed = self._resumed_output or {}
+        next_out = resumed.get("next_out", self.t)
+        ckpt_every = oc["checkpoint_interval"]
+        next_ckpt = self.t + ckpt_every
         slack = 1e-9 * end  # round-off in the summed time; not worth a step of its own
         io_time = 0.0
         compile_time = None
@@ -254,6 +330,9 @@ class Simulation:
                         io_time += time.perf_counter() - t0
                         next_out += interval
                         written = True
+                    if writer is not None and ckpt_every > 0 and self.t >= next_ckpt - slack:
+                        writer.checkpoint(next_out)
+                        next_ckpt += ckpt_every
                     if stop.signal is not None:
                         status = "interrupted"
                         message = (f"stopped by {stop.signal} at t = {self.t:.6g} s (step {self.steps})")
@@ -282,6 +361,8 @@ class Simulation:
             if writer is not None:
                 writer.write(failed=True)
                 message += f"; last good output: {writer.last_good}"
+        if writer is not None and status != "failed":
+            writer.checkpoint(next_out)  # a clean stop or the end: the run can be continued
         wall = time.perf_counter() - t_start
         stepping = (time.perf_counter() - t_loop - (io_time - io0)) if t_loop else 0.0
         timed_steps = self.steps - steps0 if t_loop else 0
@@ -306,26 +387,30 @@ class Simulation:
 class Output:
     """VTK series, probes.csv and run.json in one directory."""
 
-    def __init__(self, sim, out, oc):
+    def __init__(self, sim, out, oc, resumed=None):
         self.sim, self.out, self.oc = sim, out, oc
         out.mkdir(parents=True, exist_ok=True)
-        # frames of an earlier run in the same directory would sit beside the new series
-        # without being listed in it
-        for old in list(out.glob("fluid_[0-9]*.vtu")) + list(out.glob("fluid_failed.vtu")):
-            old.unlink()
-        self.entries = []
-        self.count = 0
+        resumed = resumed or {}
+        self.entries = [tuple(e) for e in resumed.get("entries", [])]
+        self.count = resumed.get("count", 0)
+        self.iter_max = resumed.get("iter_max", 0)
+        # frames of an earlier run in the same directory (or, on a restart, written after
+        # the checkpoint) would sit beside the series without being listed in it
+        keep = {e[2] for e in self.entries}
+        for old in [*out.glob("fluid_[0-9]*.vtu"), *out.glob("fluid_failed.vtu"), *out.glob(".*.tmp[0-9]*")]:
+            if old.name not in keep:
+                old.unlink()
         self.last_good = "(none written)"
         cols = ["time", "step", "dt", "n_fluid", "kinetic_energy", "potential_energy"]
         if oc["surge_front"]:
             cols.append("surge_front")
         cols += sim.probes.columns()
         self.stats = sim.integrator.columns()  # per-step figures of the scheme (midpoint, RK45)
-        self.iter_max = 0
         cols += self.stats + (["midpoint_iterations_max"] if "midpoint_iterations" in self.stats else [])
-        self.probes = probes.ProbeWriter(out / "probes.csv", cols)
-        self.steps_log = probes.ProbeWriter(out / "steps.csv", ["step", "time", "dt"] + self.stats) \
-            if self.stats else None
+        upto = sim.steps if resumed else None  # a restart keeps the rows up to its checkpoint
+        self.probes = probes.ProbeWriter(out / "probes.csv", cols, keep_steps=upto)
+        self.steps_log = probes.ProbeWriter(out / "steps.csv", ["step", "time", "dt"] + self.stats,
+                                            keep_steps=upto) if self.stats else None
         if oc["vtk"] and sim.walls.n:
             names = [k for k in ("n", "elementSize", "psi") if k in sim.walls.arrays]
             vtk.write_points(out / "walls.vtu", sim.host(sim.walls, "x")[0],
@@ -370,6 +455,11 @@ class Output:
         stats = sim.integrator.stats
         self.iter_max = max(self.iter_max, stats.get("midpoint_iterations", 0))
         self.steps_log.write(dict(stats, step=sim.steps, time=sim.t, dt=float(sim.P.dt)))
+
+    def checkpoint(self, next_out):
+        """``checkpoint.npz``: the state, and where the output series stands."""
+        self.sim.save_checkpoint(self.out / "checkpoint.npz", {
+            "entries": self.entries, "count": self.count, "iter_max": self.iter_max, "next_out": next_out})
 
     def close(self, summary):
         self.probes.close()

@@ -19,11 +19,22 @@ def surge_front(x, dp):
 
 
 class ProbeWriter:
-    def __init__(self, path, columns):
+    """A CSV time series, flushed row by row. ``keep_steps``: continue an existing file (a
+    restart), keeping its rows up to that step and dropping later ones."""
+
+    def __init__(self, path, columns, keep_steps=None):
         self.columns = columns
+        kept = []
+        if keep_steps is not None and path.exists():
+            with open(path, newline="") as f:
+                rows = list(csv.reader(f))
+            if rows and rows[0] == list(columns):
+                step = columns.index("step")
+                kept = [r for r in rows[1:] if len(r) == len(columns) and int(r[step]) <= keep_steps]
         self._f = open(path, "w", newline="")
         self._w = csv.writer(self._f)
         self._w.writerow(columns)
+        self._w.writerows(kept)
 
     def write(self, row):
         self._w.writerow([f"{row[c]:.9g}" if isinstance(row[c], float) else row[c] for c in self.columns])

@@ -1,0 +1,67 @@
+"""Checkpoint and restart: a run stopped at a step and resumed from its checkpoint ends in
+exactly the state of the run that never stopped (same backend and precision), for every
+integrator; checkpoints of another case or format are refused with one clear line."""
+import json
+
+import numpy as np
+import pytest
+
+from wcsph import Simulation
+from wcsph.cli import main
+from wcsph.config import CaseError, load
+
+INTEGRATORS = ["symplectic_euler", "verlet", "symplectic_verlet", "rk4", "rk45", "midpoint"]
+
+
+def _case(integrator, *extra):
+    over = [("dp", 0.04), ("time.end", 0.03), ("time.integrator", integrator), ("output.vtk", False),
+            ("output.interval", 0.01), ("time.verlet_euler_interval", 4), *extra]
+    return load("dam_break_2d_bi", over)
+
+
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+def test_restart_is_bit_for_bit(integrator, tmp_path):
+    whole = Simulation(_case(integrator))
+    whole.run(output=tmp_path / "whole", progress=False)
+    meta_w, arrays_w = Simulation.read_checkpoint(tmp_path / "whole")
+
+    first = Simulation(_case(integrator, ("time.max_steps", 7)))  # stops at a step boundary
+    first.run(output=tmp_path / "split", progress=False)
+    meta, arrays = Simulation.read_checkpoint(tmp_path / "split")
+    assert meta["steps"] == 7 and meta["t"] < meta_w["t"]
+    second = Simulation(_case(integrator))
+    second.restore(meta, arrays)
+    second.run(output=tmp_path / "split", progress=False)
+    meta_s, arrays_s = Simulation.read_checkpoint(tmp_path / "split")
+
+    assert (meta_s["t"], meta_s["steps"]) == (meta_w["t"], meta_w["steps"])
+    assert meta_s["integrator"]["carried"] == meta_w["integrator"]["carried"]
+    assert set(arrays_s) == set(arrays_w)
+    for k in ("x", "v", "rho", "id"):
+        assert np.array_equal(arrays_s[k], arrays_w[k]), k
+    # the series continues: one probes.csv row per output time, none twice
+    times = [float(line.split(",")[0]) for line in (tmp_path / "split" / "probes.csv").read_text().splitlines()[1:]]
+    assert times == sorted(set(times)) and times[-1] == pytest.approx(meta_w["t"])
+
+
+def test_resume_command_and_refusals(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", "hydrostatic_2d", "-o", str(out), "--no-progress", "--end-time", "0.02",
+                 "--set", "output.vtk=false"]) == 0
+    assert main(["resume", str(out), "--end-time", "0.04", "--no-progress"]) == 0
+    summary = json.loads((out / "run.json").read_text())
+    assert summary["status"] == "completed" and summary["end_time"] == pytest.approx(0.04)
+    capsys.readouterr()
+    assert main(["resume", str(out), "--no-progress"]) == 2  # already at its end time
+    assert "give a later --end-time" in capsys.readouterr().err
+    assert main(["resume", str(tmp_path / "nothing")]) == 2
+    assert "no checkpoint" in capsys.readouterr().err
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a checkpoint")
+    assert main(["resume", str(bad)]) == 2
+    assert "not a readable wcsph checkpoint" in capsys.readouterr().err
+    # a checkpoint of another case is refused
+    meta, arrays = Simulation.read_checkpoint(out)
+    other = Simulation(load("hydrostatic_2d", [("dp", 0.05)]))
+    with pytest.raises(CaseError, match="another case or other settings"):
+        other.restore(meta, arrays)
