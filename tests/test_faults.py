@@ -104,3 +104,68 @@ def test_version_show_and_closed_pipe(capsys, tmp_path):
     proc = subprocess.run(f"{sys.executable} -m wcsph.cli cases | head -1", shell=True, capture_output=True,
                           text=True, env=dict(os.environ))
     assert proc.stdout.count("\n") == 1 and "Traceback" not in proc.stderr and "Error" not in proc.stderr
+
+
+# ------------------------------------------------------------------ bad input: one line, exit 2
+BASE_TOML = """name = "x"
+dim = 2
+dp = 0.05
+[[fluid]]
+min = [0.0, 0.0]
+max = [0.5, 0.5]
+[tank]
+min = [0.0, 0.0]
+max = [1.0, 1.0]
+[time]
+end = 0.01
+"""
+
+
+def _file_under_a_file(tmp_path):
+    (tmp_path / "afile").write_text("")
+    return str(tmp_path / "afile" / "sub")
+
+
+@pytest.mark.parametrize("case_text,args,message", [
+    (b"\xff\xfe" + BASE_TOML.encode(), [], "not UTF-8 text"),
+    ("fluid = []\n" + BASE_TOML.split("[[fluid]]")[0].replace('name = "x"\n', 'name = "x"\n') + "[time]\nend = 0.01\n",
+     [], "fluid: no fluid block"),
+    (BASE_TOML + "[[obstacle]]\nmin = [0.0, 0.0]\nmax = [0.6, 0.6]\n", [], "the obstacles cover all the fluid"),
+    (BASE_TOML + "[[fluid]]\nmin = [0.2, 0.2]\nmax = [0.7, 0.7]\n", [], "fluid[1]: overlaps fluid[0] (in [0.2, 0.2]"),
+    (BASE_TOML, ["--dp", "5e-6"], "--dp: 5e-06 m makes about"),
+    (BASE_TOML, ["--set", "model.wall_layers=100000"], "GiB; this machine has"),
+    (BASE_TOML, ["--backend", "cuda"], "backend: cuda: no usable NVIDIA GPU"),
+    (BASE_TOML, ["-o", "FILE"], "is a file, not a directory"),
+    (BASE_TOML, ["-o", "UNDER_FILE"], "cannot create"),
+    (BASE_TOML, ["--set", "time.end=-1"], "--set time.end: must be positive, got -1"),
+])
+def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, case_text, args, message):
+    if "cuda" in args:
+        from numba import cuda
+
+        if cuda.is_available():
+            pytest.skip("a GPU is present")
+    path = tmp_path / "case.toml"
+    path.write_bytes(case_text if isinstance(case_text, bytes) else case_text.encode())
+    args = [str(tmp_path / "afile") if a == "FILE" else _file_under_a_file(tmp_path) if a == "UNDER_FILE" else a
+            for a in args]
+    if "FILE" in " ".join(args) or str(tmp_path / "afile") in args:
+        (tmp_path / "afile").write_text("")
+    if "-o" not in args:
+        args += ["-o", str(tmp_path / "out")]
+    assert main(["run", str(path), "--no-progress", *args]) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("wcsph: error: ") and message in lines[0], err
+    assert "np.float64" not in err
+
+
+def test_all_particles_leaving_the_domain_stops_cleanly(tmp_path, capsys):
+    case = tmp_path / "jet.toml"
+    case.write_text('name = "jet"\ndim = 2\ndp = 0.05\n[[fluid]]\nmin = [0.0, 0.0]\nmax = [0.3, 0.3]\n'
+                    "velocity = [40.0, 0.0]\n[domain]\nmin = [-0.1, -0.1]\nmax = [0.5, 0.5]\n"
+                    "[physics]\ngravity = [0.0, 0.0]\nspeed_of_sound = 400.0\n[time]\nend = 0.05\n"
+                    "[output]\nsurge_front = true\n")
+    assert main(["run", str(case), "--no-progress", "-o", str(tmp_path / "out")]) == 3
+    err = capsys.readouterr().err
+    assert "every fluid particle has left the domain" in err and "Traceback" not in err

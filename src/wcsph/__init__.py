@@ -4,9 +4,9 @@ from . import threads
 threads.configure()  # before any compiled loop starts Numba's threads
 
 from .config import CaseError, load, validate
-from .solver import RunInterrupted, Simulation, SimulationError
+from .solver import OutputError, RunInterrupted, Simulation, SimulationError
 
-__all__ = ["CaseError", "RunInterrupted", "Simulation", "SimulationError", "load", "validate", "run"]
+__all__ = ["CaseError", "OutputError", "RunInterrupted", "Simulation", "SimulationError", "load", "validate", "run"]
 __version__ = "0.1.0"
 
 

@@ -17,7 +17,7 @@ EXAMPLES = """examples:
   wcsph run dam_break_3d --backend cuda        on an NVIDIA GPU (pip install -e ".[cuda]")
 
 Ctrl-C (or SIGTERM) stops a run after the current step and writes its state; exit codes:
-0 done, 2 bad input, 3 the run blew up, 130 interrupted. A stopped or finished run continues
+0 done, 2 bad input, 3 the run blew up, 4 output could not be written, 130 interrupted. A stopped or finished run continues
 with: wcsph resume runs/dam_break_2d --end-time 2"""
 
 
@@ -54,6 +54,35 @@ def _parser():
     return p
 
 
+def _check_output(out, what):
+    """Refuse, before any set-up, an output directory that cannot be written."""
+    p = Path(out)
+    if p.exists() and not p.is_dir():
+        raise CaseError(f"{what}: {out} is a file, not a directory")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise CaseError(f"{what}: cannot create {out}: {e.strerror}") from None
+    if not os.access(p, os.W_OK | os.X_OK):
+        raise CaseError(f"{what}: {out} is not writable")
+
+
+def _blame(message, args):
+    """A value given on the command line is blamed on the command line, not on the file."""
+    given = {}
+    for text in getattr(args, "sets", []):
+        if "=" in text:
+            given[text.split("=", 1)[0].strip()] = f"--set {text.split('=', 1)[0].strip()}"
+    for key, opt in (("dp", "--dp"), ("time.end", "--end-time"), ("backend", "--backend")):
+        if getattr(args, key.split(".")[-1].replace("end", "end_time"), None) is not None:
+            given[key] = opt
+    head, sep, rest = message.partition(": ")
+    key = rest.split(": ", 1)[0] if sep else ""
+    if key in given and head != given[key]:
+        return f"{given[key]}: {rest.split(': ', 1)[1]}" if ": " in rest else message
+    return message
+
+
 def main(argv=None):
     try:
         return _main(argv)
@@ -79,7 +108,7 @@ def _main(argv):
             print(f"wcsph: error: {e}", file=sys.stderr)
             return 2
         return 0
-    from .solver import RunInterrupted, Simulation, SimulationError
+    from .solver import OutputError, RunInterrupted, Simulation, SimulationError
 
     out = None
     try:
@@ -107,17 +136,21 @@ def _main(argv):
                 overrides.append(("backend", args.backend))
             case = load(args.case, overrides)
             out = args.output or f"runs/{case['name']}"
+            _check_output(out, "--output" if args.output else f"the default output directory {out}")
             sim = Simulation(case)
         print(f"{case['name']}: {case['dim']}D, dp = {case['dp']:g} m, {sim.fluid.n} fluid and "
               f"{sim.walls.n} wall particles, c0 = {sim.c0:.3g} m/s, {case['precision']} on "
               f"{sim.backend.name}; output in {out}", flush=True)
         summary = sim.run(output=out, progress=not args.no_progress and case["output"]["progress"])
     except CaseError as e:
-        print(f"wcsph: error: {e}", file=sys.stderr)
+        print(f"wcsph: error: {_blame(str(e), args)}", file=sys.stderr)
         return 2
     except SimulationError as e:
         print(f"wcsph: run stopped: {e}", file=sys.stderr)
         return 3
+    except OutputError as e:
+        print(f"wcsph: output error: {e}", file=sys.stderr)
+        return 4
     except RunInterrupted as e:
         print(f"wcsph: interrupted: {e}; run.json in {out} says \"interrupted\"", file=sys.stderr)
         return 130

@@ -261,6 +261,16 @@ def validate(data, src="<case>"):
             _check_box(src, f"{kind}[{k}]", b)
     if case["tank"] is not None:
         _check_box(src, "tank", case["tank"])
+    if not case["fluid"]:
+        _fail(src, "fluid", "no fluid block: give at least one [[fluid]] with min and max")
+    blocks = case["fluid"]
+    for a in range(len(blocks)):
+        for b in range(a + 1, len(blocks)):
+            lo = [max(p, q) for p, q in zip(blocks[a]["min"], blocks[b]["min"])]
+            hi = [min(p, q) for p, q in zip(blocks[a]["max"], blocks[b]["max"])]
+            if all(h - l > 1e-9 for l, h in zip(lo, hi)):
+                _fail(src, f"fluid[{b}]", f"overlaps fluid[{a}] (in {_num(lo)} .. {_num(hi)}); particles "
+                      "placed twice start on top of each other")
     d = case["domain"]
     if d is not None and (d["min"] is None) != (d["max"] is None):
         _fail(src, "domain", "give both min and max, or neither")
@@ -317,10 +327,17 @@ def resolve(case):
     raise CaseError(f"{case}: neither a case file nor a shipped case ({', '.join(shipped_cases())})")
 
 
+def _num(values):
+    """Numbers as a reader writes them ([0.5, 1], not [np.float64(0.5), ...])."""
+    return "[" + ", ".join(f"{float(v):g}" for v in values) + "]"
+
+
 def read_toml(path):
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as e:
+        raise CaseError(f"{path}: not UTF-8 text (byte {e.start}); save the case file as UTF-8") from None
     except tomllib.TOMLDecodeError as e:
         raise CaseError(f"{path}: not valid TOML: {e}") from None
     except OSError as e:

@@ -19,6 +19,7 @@ this orientation). A polygon wall has the fluid on the left of its direction of 
 The last axis is vertical.
 """
 import math
+import os
 
 import numpy as np
 
@@ -153,6 +154,47 @@ def boundary_elements(case, size):
     return tuple(np.concatenate(p, axis=-1) for p in zip(*parts))
 
 
+#: bytes per particle a run holds, fluid and wall (state, derivatives, integrator copies,
+#: sort spares and cell list; measured 150-400 B in float32, 300-800 B in float64)
+BYTES_PER_PARTICLE = {"float32": 400, "float64": 800}
+
+
+def estimate(case):
+    """(fluid particles, wall particles or elements, bytes) of ``case``, from its boxes alone,
+    before anything is allocated: lattices of dp over the fluid blocks, tank faces times
+    wall layers (classic) or faces / element size (WCSPH-BI)."""
+    dp, dim = case["dp"], case["dim"]
+    n_fluid = sum(math.prod(max(0.0, (b - a) / dp) for a, b in zip(blk["min"], blk["max"]))
+                  for blk in case["fluid"])
+    boxes = ([case["tank"]] if case["tank"] is not None else []) + list(case["obstacle"])
+    n_wall = 0.0
+    for box in boxes:
+        ext = [b - a for a, b in zip(box["min"], box["max"])]
+        if case["model"]["name"] == "bi":
+            size = case["model"]["boundaryElementSize"] or dp
+            area = 2 * (ext[0] + ext[1]) if dim == 2 else 2 * (ext[0] * ext[1] + ext[1] * ext[2] + ext[0] * ext[2])
+            n_wall += area / (size if dim == 2 else size * size)
+        else:  # the wall layers are cut from a lattice over the box grown by their thickness
+            grown = 2 * wall_layers(case) * dp
+            n_wall += math.prod((e + grown) / dp for e in ext)
+    total = (n_fluid + n_wall) * BYTES_PER_PARTICLE[case["precision"]]
+    return n_fluid, n_wall, total
+
+
+def check_size(case):
+    """A clear error, before any allocation, for a case that would not fit in this machine's
+    memory (DualSPHysics and TNL-SPH fail deep inside an allocation instead)."""
+    n_fluid, n_wall, need = estimate(case)
+    try:
+        have = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return
+    if need > 0.8 * have:
+        raise CaseError(f"{case['_source']}: dp: {case['dp']:g} m makes about {n_fluid:.3g} fluid and {n_wall:.3g} "
+                        f"wall particles, about {need / 2**30:.3g} GiB; this machine has {have / 2**30:.3g} GiB. "
+                        "Use a larger dp (particle count goes as dp^-dim)")
+
+
 def build(case):
     """The fluid (a dict: ``x``, ``v``, and ``top``, the top of each particle's block), the walls (a dict: ``x``, and for boundary elements
     ``n`` and ``elementSize``), and the domain box of ``case``."""
@@ -193,6 +235,8 @@ def build(case):
         tops.append(np.full(x.shape[1], block["max"][-1]))
     fluid_x = np.concatenate(xs, axis=1)
     fluid_v = np.concatenate(vs, axis=1)
+    if fluid_x.shape[1] == 0:
+        raise CaseError(f"{src}: obstacle: the obstacles cover all the fluid; no fluid particle is left")
 
     d = case["domain"]
     h = smoothing_length(case)

@@ -38,6 +38,10 @@ class SimulationError(RuntimeError):
     """The run stopped on a non-physical state (NaN, runaway velocity)."""
 
 
+class OutputError(RuntimeError):
+    """An output file could not be written (disk full, directory gone, permissions)."""
+
+
 class RunInterrupted(RuntimeError):
     """The run was stopped by Ctrl-C or SIGTERM; its state at the last full step is written."""
 
@@ -82,6 +86,7 @@ class Simulation:
         self.dp = dp = case["dp"]
         m = case["model"]
         self.h = h = geometry.smoothing_length(case)
+        geometry.check_size(case)
         fluid0, wall0, lo, hi = geometry.build(case)
         fluid_x, fluid_v = fluid0["x"], fluid0["v"]
         self.domain = (lo, hi)
@@ -225,6 +230,9 @@ class Simulation:
         self.model.correct(self.fluid, self.walls, self.P, self.G)
         self.t += dt
         self.steps += 1
+        if self.fluid.n == 0:
+            raise SimulationError(f"every fluid particle has left the domain by t = {self.t:.6g} s "
+                                  f"(step {self.steps}); enlarge [domain] or close the tank")
         vmax2, amax2, bad = be.check(self.fluid)
         self.vmax, self.amax = math.sqrt(vmax2), math.sqrt(amax2)
         if bad:
@@ -299,7 +307,17 @@ class Simulation:
     # ------------------------------------------------------------------------------ running
     def run(self, output=None, end_time=None, progress=None):
         """Step to ``end_time`` (default the case's); write output to directory ``output``
-        (nothing if None). Returns the run summary (also written to ``run.json``)."""
+        (nothing if None). Returns the run summary (also written to ``run.json``). A file
+        that cannot be written (a full disk, a removed directory) stops the run with an
+        ``OutputError``; every file written before is whole (they are written atomically)."""
+        try:
+            return self._run(output, end_time, progress)
+        except OSError as e:
+            raise OutputError(f"cannot write to {output}: {e.strerror or e}"
+                              f"{' (' + e.filename + ')' if getattr(e, 'filename', None) else ''}; files "
+                              "written before are intact, including the last checkpoint") from None
+
+    def _run(self, output, end_time, progress):
         case = self.case
         end = end_time if end_time is not None else case["time"]["end"]
         oc = case["output"]

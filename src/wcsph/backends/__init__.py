@@ -8,6 +8,17 @@ def get_backend(name):
 
         return CpuBackend()
     if name == "cuda":
+        from ..config import CaseError
+
+        try:
+            from numba import cuda
+
+            usable = cuda.is_available()
+        except Exception:  # numba-cuda missing or its driver bindings broken
+            usable = False
+        if not usable:
+            raise CaseError("backend: cuda: no usable NVIDIA GPU (numba-cuda and an NVIDIA driver are needed: "
+                            "pip install -e \".[cuda]\"); use --backend cpu")
         from .cuda import CudaBackend
 
         return CudaBackend()

@@ -15,7 +15,7 @@ def energies(x, v, m, gravity):
 
 def surge_front(x, dp):
     """Foremost extent of the fluid along +x: the largest particle x plus half a spacing."""
-    return float(np.max(x[0])) + 0.5 * dp
+    return float(np.max(x[0])) + 0.5 * dp if x.shape[1] else float("nan")
 
 
 class ProbeWriter:
