@@ -169,3 +169,24 @@ def test_all_particles_leaving_the_domain_stops_cleanly(tmp_path, capsys):
     assert main(["run", str(case), "--no-progress", "-o", str(tmp_path / "out")]) == 3
     err = capsys.readouterr().err
     assert "every fluid particle has left the domain" in err and "Traceback" not in err
+
+
+# ------------------------------------------------------------------ defaults that run
+def test_each_integrator_starts_from_its_own_safe_cfl(capsys, tmp_path):
+    from wcsph import Simulation
+    from wcsph.config import load
+
+    expected = {"symplectic_euler": 0.025, "verlet": 0.05, "symplectic_verlet": 0.25, "rk4": 0.5,
+                "rk45": 0.5, "midpoint": 0.5}
+    for name, cfl in expected.items():
+        sim = Simulation(load("dam_break_2d_bi", [("dp", 0.04), ("time.integrator", name)]))
+        assert sim.cfl == cfl and not sim.warnings, name
+    assert Simulation(load("hydrostatic_2d", [("dp", 0.05)])).cfl == 0.25  # summation density
+    # the example: Verlet on the WCSPH-BI dam break, cfl left to the scheme, runs
+    assert main(["run", "dam_break_2d_bi", "--dp", "0.02", "--end-time", "0.3", "--no-progress", "-o",
+                 str(tmp_path / "v"), "--set", "time.integrator=verlet", "--set", "output.vtk=false"]) == 0
+    # a cfl past the measured limit runs, with one warning line
+    assert main(["run", "dam_break_2d_bi", "--dp", "0.04", "--end-time", "0.002", "--no-progress", "-o",
+                 str(tmp_path / "w"), "--set", "time.integrator=verlet", "--set", "time.cfl=0.25"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("wcsph: warning: time.cfl = 0.25 is past the largest stable value") == 1

@@ -141,6 +141,8 @@ def _main(argv):
         print(f"{case['name']}: {case['dim']}D, dp = {case['dp']:g} m, {sim.fluid.n} fluid and "
               f"{sim.walls.n} wall particles, c0 = {sim.c0:.3g} m/s, {case['precision']} on "
               f"{sim.backend.name}; output in {out}", flush=True)
+        for w in sim.warnings:
+            print(f"wcsph: warning: {w}", file=sys.stderr, flush=True)
         summary = sim.run(output=out, progress=not args.no_progress and case["output"]["progress"])
     except CaseError as e:
         print(f"wcsph: error: {_blame(str(e), args)}", file=sys.stderr)

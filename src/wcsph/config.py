@@ -134,7 +134,7 @@ SCHEMA = {
         "midpointRelaxCoef_0": ("float", 0.0, UNIT_OPEN),
         "midpointResidualMinimalDecay": ("float", 0.2, POS),
         "midpointRelaxCoefIncrement": ("float", 0.0, UNIT_OPEN),
-        "cfl": ("float", 0.25, POS),
+        "cfl": ("float", 0.0, NONNEG),  # 0: the integrator's own default
         "force_cfl": ("float", 0.25, POS),
         "dt": ("float", 0.0, NONNEG),
         "dtInit": ("float", 0.0, NONNEG),

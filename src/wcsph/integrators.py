@@ -274,6 +274,13 @@ class Integrator:
     reduce_maps = ()  # indices of the maps that are reductions, not per-particle updates
     #: scalar attributes that carry from one step to the next (saved in checkpoints)
     carried = ()
+    #: the largest cfl that ran dam_break_2d_bi to 1 s (benchmarks/integrators.py; None: the
+    #: scheme's error control sets the step), and the default when time.cfl is not given:
+    #: about half of it, for a continuity-density model; ``summation_cfl`` for the classic
+    #: model's density summation, where symplectic Euler is stable at 0.25
+    stable_cfl = None
+    safe_cfl = 0.25
+    summation_cfl = None
 
     def __init__(self, backend, dim, continuity, dtype, settings=None):
         self.backend, self.dim, self.continuity, self.dtype = backend, dim, continuity, dtype
@@ -290,6 +297,10 @@ class Integrator:
     def columns(self):
         return list(self.stats)
 
+    def default_cfl(self):
+        """The cfl this scheme starts from when the case gives none."""
+        return self.summation_cfl if not self.continuity and self.summation_cfl else self.safe_cfl
+
     def carried_state(self):
         """The scheme's scalars a restart needs, and its last per-step figures."""
         return {"carried": {k: getattr(self, k) for k in self.carried}, "stats": dict(self.stats)}
@@ -303,6 +314,7 @@ class Integrator:
 class SymplecticEuler(Integrator):
     factory = staticmethod(make_symplectic_euler)
     order = 1
+    stable_cfl, safe_cfl, summation_cfl = 0.05, 0.025, 0.25
 
     def step(self, sim, P):
         sim.evaluate(P)
@@ -317,6 +329,7 @@ class Verlet(Integrator):
     factory = staticmethod(make_verlet)
     fields = (("v0", "vector", False), ("rho0", "scalar", False))
     order = 2
+    stable_cfl, safe_cfl = 0.1, 0.05
     carried = ("count",)
 
     def __init__(self, *a, **k):
@@ -337,6 +350,7 @@ class SymplecticVerlet(Integrator):
     factory = staticmethod(make_symplectic_verlet)
     fields = _SAVED
     order = 2
+    stable_cfl, safe_cfl = 0.4, 0.25
     evaluations = 2
 
     def step(self, sim, P):
@@ -434,6 +448,7 @@ class RungeKutta(Integrator):
 class RK4(RungeKutta):
     """The classic fourth-order Runge-Kutta scheme (Kutta 1901), four evaluations a step."""
     ORDER = 4
+    stable_cfl, safe_cfl = 1.0, 0.5
     A = [[], [0.5], [0.0, 0.5], [0.0, 0.0, 1.0]]
     b = [1 / 6, 1 / 3, 1 / 3, 1 / 6]
 
@@ -443,6 +458,7 @@ class RK45(RungeKutta):
     estimate, seven evaluations a step (the first-same-as-last property is not used: the
     particles are re-sorted between steps)."""
     ORDER = 5
+    safe_cfl = 0.5  # the error control lowers the step as needed
     A = [[],
          [1 / 5],
          [3 / 40, 9 / 40],
@@ -492,6 +508,7 @@ class ImplicitMidpoint(Integrator):
     factory = staticmethod(make_midpoint)
     fields = _SAVED + (("dv_t", "vector", False), ("drho_t", "scalar", False))
     order = 2
+    stable_cfl, safe_cfl = 1.0, 0.5
     reduce_maps = (3,)
     carried = ("primed",)
 

@@ -113,6 +113,17 @@ class Simulation:
         scheme = SPEC_SCHEMES.get(scheme, scheme)
         self.integrator = INTEGRATORS[scheme](be, dim, model.continuity, dtype, settings=dict(
             case["time"], adaptive=case["time"]["dt"] <= 0))
+        tc = case["time"]
+        self.cfl = tc["cfl"] or self.integrator.default_cfl()
+        self.warnings = []  # settings that make results doubtful; the command line prints them
+        stable = self.integrator.stable_cfl
+        if tc["cfl"] and tc["dt"] <= 0 and model.continuity and stable and tc["cfl"] > stable:
+            self.warnings.append(f"time.cfl = {tc['cfl']:g} is past the largest stable value measured for "
+                                 f"{scheme} ({stable:g}, benchmarks/integrators.py); leave time.cfl out for its "
+                                 f"default ({self.integrator.default_cfl():g})")
+        if h < dp * (1 - 1e-9):
+            self.warnings.append(f"h = {h:g} m is smaller than dp = {dp:g} m: a particle has almost no "
+                                 "neighbours and the SPH sums are meaningless")
         kp = dict(kernel_params(m["kernel"], dim, h), rc=rc)
         self.P = model.params(kp, self.rho0, self.gamma, self.c0, self.gravity, 1.0)
 
@@ -171,7 +182,7 @@ class Simulation:
         viscous (Morris et al. 1997) conditions: dt = min(cfl h/(c0 + |v|max),
         force_cfl sqrt(h/|a|max), 0.125 h^2/nu)."""
         tc = self.case["time"]
-        dt = tc["cfl"] * self.h / (self.c0 + self.vmax)
+        dt = self.cfl * self.h / (self.c0 + self.vmax)
         if self.amax > 0:
             dt = min(dt, tc["force_cfl"] * math.sqrt(self.h / self.amax))
         nu = self.model.kinematic_viscosity(self.rho0)
