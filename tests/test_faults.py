@@ -138,6 +138,7 @@ def _file_under_a_file(tmp_path):
     (BASE_TOML, ["-o", "FILE"], "is a file, not a directory"),
     (BASE_TOML, ["-o", "UNDER_FILE"], "cannot create"),
     (BASE_TOML, ["--set", "time.end=-1"], "--set time.end: must be positive, got -1"),
+    (BASE_TOML.replace('name = "x"', 'name = "../../elsewhere"'), [], "name: must be letters, digits"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, case_text, args, message):
     if "cuda" in args:
@@ -190,3 +191,22 @@ def test_each_integrator_starts_from_its_own_safe_cfl(capsys, tmp_path):
                  str(tmp_path / "w"), "--set", "time.integrator=verlet", "--set", "time.cfl=0.25"]) == 0
     err = capsys.readouterr().err
     assert err.count("wcsph: warning: time.cfl = 0.25 is past the largest stable value") == 1
+
+
+def test_probes_at_their_own_rate(tmp_path):
+    """probe_interval samples probes.csv independently of the VTK frames (TNL-SPH's
+    sensor output time): 1 ms rows between frames 10 ms apart."""
+    import csv
+
+    out = tmp_path / "run"
+    assert main(["run", "dam_break_2d_bi", "--dp", "0.02", "--end-time", "0.02", "--no-progress", "-o", str(out),
+                 "--set", "output.interval=0.01", "--set", "output.probe_interval=0.001"]) == 0
+    with open(out / "probes.csv") as f:
+        rows = list(csv.DictReader(f))
+    t = [float(r["time"]) for r in rows]
+    dt = max(float(r["dt"]) for r in rows)
+    assert 19 <= len(rows) <= 22 and t == sorted(t)
+    gaps = [b - a for a, b in zip(t, t[1:])]
+    assert all(0.001 - dt - 1e-9 <= g <= 0.001 + dt + 1e-9 for g in gaps[:-1]), gaps
+    frames = [ds.get("file") for ds in ET.parse(out / "fluid.pvd").getroot().iter("DataSet")]
+    assert len(frames) == 3  # t = 0, 0.01, 0.02

@@ -6,6 +6,7 @@ problem is reported as a ``CaseError`` naming the file and the dotted key, e.g.
 """
 import copy
 import math
+import re
 import tomllib
 from pathlib import Path
 
@@ -27,6 +28,9 @@ def _one_of(*opts):
     return (lambda v: v in opts, "must be one of " + ", ".join(repr(o) for o in opts))
 
 
+#: a case name becomes the directory runs/NAME: one path component, no way out of runs/
+SAFE_NAME = (lambda v: bool(re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", v)) and ".." not in v,
+             "must be letters, digits, '_', '-' or '.' (it names the output directory runs/NAME)")
 BLOCK = {"min": ("vec", REQUIRED, None), "max": ("vec", REQUIRED, None)}
 FLUID_BLOCK = dict(BLOCK, velocity=("vec", None, None))
 UNIT = (lambda v: 0 <= v <= 1, "must lie in [0, 1]")
@@ -65,7 +69,7 @@ SPEC_PARAMETERS = {
 }
 
 SCHEMA = {
-    "name": ("str", "case", None),
+    "name": ("str", "case", SAFE_NAME),
     "description": ("str", "", None),
     "dim": ("int", REQUIRED, _one_of(2, 3)),
     "dp": ("float", REQUIRED, POS),
@@ -145,6 +149,7 @@ SCHEMA = {
     "output": ({
         "interval": ("float", 0.0, NONNEG),
         "checkpoint_interval": ("float", 0.0, NONNEG),
+        "probe_interval": ("float", 0.0, NONNEG),
         "vtk": ("bool", True, None),
         "surge_front": ("bool", False, None),
         "progress": ("bool", True, None),

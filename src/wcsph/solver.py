@@ -343,6 +343,8 @@ class Simulation:
         next_out = resumed.get("next_out", self.t)
         ckpt_every = oc["checkpoint_interval"]
         next_ckpt = self.t + ckpt_every
+        probe_every = oc["probe_interval"]  # 0: a probes.csv row with every frame
+        next_probe = resumed.get("next_probe", self.t)
         slack = 1e-9 * end  # round-off in the summed time; not worth a step of its own
         io_time = 0.0
         compile_time = None
@@ -355,12 +357,17 @@ class Simulation:
                     written = False
                     if writer is not None and self.t >= next_out - slack:
                         t0 = time.perf_counter()
-                        writer.write()
+                        writer.write(sample=not probe_every)
                         io_time += time.perf_counter() - t0
                         next_out += interval
                         written = True
+                    if writer is not None and probe_every and self.t >= next_probe - slack:
+                        t0 = time.perf_counter()
+                        writer.sample()
+                        io_time += time.perf_counter() - t0
+                        next_probe += probe_every
                     if writer is not None and ckpt_every > 0 and self.t >= next_ckpt - slack:
-                        writer.checkpoint(next_out)
+                        writer.checkpoint(next_out, next_probe)
                         next_ckpt += ckpt_every
                     if stop.signal is not None:
                         status = "interrupted"
@@ -391,7 +398,7 @@ class Simulation:
                 writer.write(failed=True)
                 message += f"; last good output: {writer.last_good}"
         if writer is not None and status != "failed":
-            writer.checkpoint(next_out)  # a clean stop or the end: the run can be continued
+            writer.checkpoint(next_out, next_probe)  # a clean stop or the end: the run can be continued
         wall = time.perf_counter() - t_start
         stepping = (time.perf_counter() - t_loop - (io_time - io0)) if t_loop else 0.0
         timed_steps = self.steps - steps0 if t_loop else 0
@@ -445,11 +452,15 @@ class Output:
             vtk.write_points(out / "walls.vtu", sim.host(sim.walls, "x")[0],
                              dict(zip(names, sim.host(sim.walls, *names))))
 
-    def write(self, failed=False):
+    def write(self, failed=False, sample=True):
+        """A VTK frame (when ``vtk`` is on) and, with ``sample``, a row of probes.csv."""
         sim = self.sim
-        values = sim.probes.sample()  # refreshes p from the current density first
-        x, v, rho, p, m, ids = sim.host(sim.fluid, "x", "v", "rho", "p", "m", "id")
+        if sample and not failed:
+            self.sample()  # refreshes p from the current density first
+        else:
+            sim.model.refresh(sim.fluid, sim.P)
         if self.oc["vtk"]:
+            x, v, rho, p, ids = sim.host(sim.fluid, "x", "v", "rho", "p", "id")
             name = "fluid_failed.vtu" if failed else f"fluid_{self.count:04d}.vtu"
             vtk.write_points(self.out / name, x, {"rho": rho, "p": p, "v": v, "id": ids})
             if not failed:
@@ -459,8 +470,14 @@ class Output:
                 vtk.write_pvd(self.out / "fluid.pvd", [e for e in self.entries if e[1] == 0])
                 vtk.write_pvd(self.out / "case.pvd", self.entries)
                 self.last_good = f"{self.out / name} (t = {sim.t:.6g} s)"
-        if failed:
-            return
+        if not failed:
+            self.count += 1
+
+    def sample(self):
+        """One row of probes.csv: time, energies, surge front, the probes, the scheme's figures."""
+        sim = self.sim
+        values = sim.probes.sample()  # refreshes p from the current density first
+        x, v, m = sim.host(sim.fluid, "x", "v", "m")
         ek, ep = probes.energies(x, v, m, sim.gravity)
         row = {"time": sim.t, "step": sim.steps, "dt": float(sim.P.dt) if sim.steps else 0.0,
                "n_fluid": sim.fluid.n, "kinetic_energy": ek, "potential_energy": ep}
@@ -473,7 +490,6 @@ class Output:
             row["midpoint_iterations_max"] = self.iter_max
             self.iter_max = 0
         self.probes.write(row)
-        self.count += 1
 
     def log_step(self):
         """One row of ``steps.csv`` per step for schemes with per-step figures (midpoint
@@ -485,10 +501,11 @@ class Output:
         self.iter_max = max(self.iter_max, stats.get("midpoint_iterations", 0))
         self.steps_log.write(dict(stats, step=sim.steps, time=sim.t, dt=float(sim.P.dt)))
 
-    def checkpoint(self, next_out):
+    def checkpoint(self, next_out, next_probe):
         """``checkpoint.npz``: the state, and where the output series stands."""
         self.sim.save_checkpoint(self.out / "checkpoint.npz", {
-            "entries": self.entries, "count": self.count, "iter_max": self.iter_max, "next_out": next_out})
+            "entries": self.entries, "count": self.count, "iter_max": self.iter_max, "next_out": next_out,
+            "next_probe": next_probe})
 
     def close(self, summary):
         self.probes.close()
