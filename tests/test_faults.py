@@ -210,3 +210,17 @@ def test_probes_at_their_own_rate(tmp_path):
     assert all(0.001 - dt - 1e-9 <= g <= 0.001 + dt + 1e-9 for g in gaps[:-1]), gaps
     frames = [ds.get("file") for ds in ET.parse(out / "fluid.pvd").getroot().iter("DataSet")]
     assert len(frames) == 3  # t = 0, 0.01, 0.02
+
+
+def test_plot_writes_pngs_of_the_probe_series(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", "dam_break_2d_bi", "--dp", "0.04", "--end-time", "0.01", "--no-progress", "-o", str(out),
+                 "--set", "output.vtk=false"]) == 0
+    capsys.readouterr()
+    assert main(["plot", str(out)]) == 0
+    written = capsys.readouterr().out.split()
+    names = {p.rsplit("/", 1)[1] for p in written}
+    assert {"plot_energies.png", "plot_pressure.png", "plot_levels.png", "plot_surge_front.png"} <= names
+    for p in written:
+        assert open(p, "rb").read(8) == b"\x89PNG\r\n\x1a\n"
+    assert main(["plot", str(tmp_path / "nothing")]) == 2

@@ -15,6 +15,7 @@ EXAMPLES = """examples:
   wcsph run my_case.toml -o runs/mine --dp 0.005 --end-time 0.5
   wcsph run dam_break_2d_bi --set model.ViscousTerm=\"PhysicalViscosity_MVT\" --set time.cfl=0.2
   wcsph run dam_break_3d --backend cuda        on an NVIDIA GPU (pip install -e ".[cuda]")
+  wcsph plot runs/dam_break_2d_bi              PNG plots of the probes (energies, sensors, gauges)
 
 Ctrl-C (or SIGTERM) stops a run after the current step and writes its state; exit codes:
 0 done, 2 bad input, 3 the run blew up, 4 output could not be written, 130 interrupted. A stopped or finished run continues
@@ -48,10 +49,41 @@ def _parser():
     rs.add_argument("--end-time", type=float, default=None, help="run to this time (default: the case's)")
     rs.add_argument("--output", "-o", default=None, help="output directory (default: DIR)")
     rs.add_argument("--no-progress", action="store_true")
+    pl = sub.add_parser("plot", help="PNG plots of a run's probes.csv (energies, surge front, sensors, gauges)")
+    pl.add_argument("directory", help="the run's output directory")
     sub.add_parser("cases", help="list the shipped cases")
     sh = sub.add_parser("show", help="print a shipped case as TOML (to start a case of your own)")
     sh.add_argument("case", help="a shipped case name or a case file")
     return p
+
+
+def _plot(directory):
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        print('wcsph: error: plot needs matplotlib: pip install "matplotlib==3.11.2" (or pip install -e ".[plot]")',
+              file=sys.stderr)
+        return 2
+    from .io.plots import plot_run
+
+    d = Path(directory)
+    if not (d / "probes.csv").exists():
+        print(f"wcsph: error: {d}: no probes.csv there (is it a run's output directory?)", file=sys.stderr)
+        return 2
+    kinds = None
+    try:
+        run = json.loads((d / "run.json").read_text()) if (d / "run.json").exists() else {}
+        case = load(run["case"]) if run.get("case") else None
+        kinds = {p["name"]: p["kind"] for p in case["probes"]} if case else None
+    except (CaseError, KeyError, ValueError, OSError):
+        kinds = None
+    try:
+        for path in plot_run(d, kinds):
+            print(path)
+    except (ValueError, OSError) as e:
+        print(f"wcsph: error: {e}", file=sys.stderr)
+        return 2
+    return 0
 
 
 def _check_output(out, what):
@@ -101,6 +133,8 @@ def _main(argv):
             desc = read_toml(resolve(name)).get("description", "")
             print(f"{name:20s} {desc}")
         return 0
+    if args.command == "plot":
+        return _plot(args.directory)
     if args.command == "show":
         try:
             print(resolve(args.case).read_text(), end="")
