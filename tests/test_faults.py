@@ -224,3 +224,21 @@ def test_plot_writes_pngs_of_the_probe_series(tmp_path, capsys):
     for p in written:
         assert open(p, "rb").read(8) == b"\x89PNG\r\n\x1a\n"
     assert main(["plot", str(tmp_path / "nothing")]) == 2
+
+
+def test_full_disk_stops_with_one_line_and_whole_files(tmp_path, capsys):
+    """A small tmpfs fills up mid-run (needs the right to mount, else skipped)."""
+    mnt = tmp_path / "small"
+    mnt.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=300k", "tmpfs", str(mnt)], capture_output=True).returncode:
+        pytest.skip("cannot mount a small filesystem here")
+    try:
+        out = mnt / "run"
+        rc = main(["run", "dam_break_2d", "--dp", "0.02", "--end-time", "0.2", "--no-progress", "-o", str(out)])
+        err = capsys.readouterr().err
+        assert rc == 4 and err.startswith("wcsph: output error: ") and "No space left on device" in err
+        assert len(err.strip().splitlines()) == 1
+        _listed_frames_readable(out)
+        assert not list(out.glob(".*.tmp*"))
+    finally:
+        subprocess.run(["umount", str(mnt)], capture_output=True)

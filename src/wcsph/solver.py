@@ -324,9 +324,10 @@ class Simulation:
         try:
             return self._run(output, end_time, progress)
         except OSError as e:
-            raise OutputError(f"cannot write to {output}: {e.strerror or e}"
-                              f"{' (' + e.filename + ')' if getattr(e, 'filename', None) else ''}; files "
-                              "written before are intact, including the last checkpoint") from None
+            ckpt = Path(output) / "checkpoint.npz" if output is not None else None
+            last = (f"; the last checkpoint ({ckpt}) is intact" if ckpt is not None and ckpt.exists() else "")
+            raise OutputError(f"cannot write to {output}: {e.strerror or e}; the files written before "
+                              f"are whole{last}") from None
 
     def _run(self, output, end_time, progress):
         case = self.case
