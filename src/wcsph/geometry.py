@@ -154,8 +154,9 @@ def boundary_elements(case, size):
     return tuple(np.concatenate(p, axis=-1) for p in zip(*parts))
 
 
-#: bytes per particle a run holds, fluid and wall (state, derivatives, integrator copies,
-#: sort spares and cell list; measured 150-400 B in float32, 300-800 B in float64)
+#: bytes per particle a run may hold, fluid and wall: an upper bound counted from the fields
+#: (about 30 values of the working dtype with the integrator's copies, the sort's spare
+#: copies of the sorted fields, two int64), not a measurement
 BYTES_PER_PARTICLE = {"float32": 400, "float64": 800}
 
 

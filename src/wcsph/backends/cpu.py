@@ -12,7 +12,7 @@ from .walk import make_run_visitor
 
 #: below this many particles the sort, the per-particle maps and the checks run on one
 #: thread: each is a few microseconds of work there, less than waking the other threads
-#: (the sort of 2,450 particles took 71 us as parallel loops, 45 us on one thread and 11 us
+#: (the sort of 2,450 particles took 71 us as parallel loops, 45 us on one thread and 21 us
 #: as one fused call)
 SERIAL_BELOW = 20_000
 
@@ -129,8 +129,8 @@ def _check(x, v, a):
 def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, branchless=False):
     """The one CPU neighbour loop: for each particle i of set I, visit the particles of
     J1 (and J2 when ``use2``) within the support radius, fold them into an accumulator with
-    ``pair*``, then store it with ``finish``. Per cell row the three x-adjacent cells are
-    one contiguous run of sorted particles.
+    ``pair*``, then store it with ``finish``. Per cell row the 2k + 1 x-adjacent cells
+    (k = ``G.k`` cells per support) are one contiguous run of sorted particles.
 
     Particles are handed to the threads in chunks of ``CHUNK`` as they free up, not in one
     equal share each: the cost per particle varies (free surface, walls), and the static
