@@ -213,8 +213,15 @@ def test_spec_parameter_names_and_derived_defaults():
 @pytest.mark.parametrize("data,message", [
     ({"parameters": {"deltaa": 0.1}}, "parameters.deltaa: unknown parameter"),
     ({"parameters": {"delta": 0.1}, "model": {"name": "bi", "delta": 0.2}}, "parameters.delta: also given"),
-    ({"model": {"name": "bi", "xsph": 0.1}}, "model.xsph: applies to model 'classic'"),
-    ({"model": {"name": "classic", "delta": 0.1}}, "model.delta: applies to model 'bi'"),
+    ({"model": {"name": "bi", "wall_layers": 2}}, "model.wall_layers: applies to model.BCType = "
+     "'AkinciBoundaryParticles', not to model.BCType = 'BIConservative_numeric'"),
+    ({"model": {"name": "classic", "DiffusiveTerm": "MolteniDiffusiveTerm"}},
+     "model.DiffusiveTerm: 'MolteniDiffusiveTerm' needs model.density = 'continuity', not 'summation'"),
+    ({"model": {"name": "bi", "density": "summation"}}, "model.density: 'summation' needs boundary particles, "
+     "which model.BCType = 'BIConservative_numeric' does not give"),
+    ({"model": {"name": "bi", "elasticFactor": 0.5}}, "model.elasticFactor: 0.5 has no effect with "
+     "elasticBounce = 'conservative'"),
+    ({"model": {"name": "bi", "xsph": 0.1}}, "model.xsph: expected a string, got 0.1"),
     ({"model": {"name": "bi", "ViscousTerm": "Laminar"}}, "model.ViscousTerm: must be one of"),
     ({"model": {"name": "bi", "elasticFactor": 2.0}}, "model.elasticFactor: must lie in [0, 1]"),
 ])

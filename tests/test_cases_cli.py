@@ -35,7 +35,7 @@ def _case(**changes):
 
 @pytest.mark.parametrize("changes,message", [
     ({"dpp": 0.1}, "dpp: unknown key"),
-    ({"model": {"xsph": "high"}}, "model.xsph: expected a number, got 'high'"),
+    ({"model": {"xsph": "high"}}, "model.xsph: must be one of 'None', 'momentum', 'position', got 'high'"),
     ({"dp": -0.01}, "dp: must be positive"),
     ({"dp": 0}, "dp: must be positive"),
     ({"dim": 4}, "dim: must be 2 or 3"),
@@ -71,8 +71,8 @@ def test_shipped_cases_validate():
 
 
 def test_set_overrides_by_dotted_key():
-    case = load("dam_break_2d", [("model.xsph", 0.05), ("dp", 0.04), ("time.end", 0.5)])
-    assert case["model"]["xsph"] == 0.05 and case["dp"] == 0.04 and case["time"]["end"] == 0.5
+    case = load("dam_break_2d", [("model.xsph_epsilon", 0.05), ("dp", 0.04), ("time.end", 0.5)])
+    assert case["model"]["xsph_epsilon"] == 0.05 and case["dp"] == 0.04 and case["time"]["end"] == 0.5
     with pytest.raises(CaseError, match="model.nope: unknown key"):
         load("dam_break_2d", [("model.nope", 1)])
 

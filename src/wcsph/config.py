@@ -10,6 +10,9 @@ import re
 import tomllib
 from pathlib import Path
 
+from . import plugins
+from .registry import NONNEG, POS, REQUIRED, one_of
+
 CASES_DIR = Path(__file__).parent / "cases"
 
 
@@ -19,13 +22,7 @@ class CaseError(ValueError):
 
 # ---------------------------------------------------------------------------------- schema
 # leaf: (kind, default, check) where kind is a type tag and check a (predicate, message)
-REQUIRED = object()
-POS = (lambda v: v > 0, "must be positive")
-NONNEG = (lambda v: v >= 0, "must be zero or positive")
-
-
-def _one_of(*opts):
-    return (lambda v: v in opts, "must be one of " + ", ".join(repr(o) for o in opts))
+_one_of = one_of
 
 
 #: a case name becomes the directory runs/NAME: one path component, no way out of runs/
@@ -33,7 +30,6 @@ SAFE_NAME = (lambda v: bool(re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", v)) and 
              "must be letters, digits, '_', '-' or '.' (it names the output directory runs/NAME)")
 BLOCK = {"min": ("vec", REQUIRED, None), "max": ("vec", REQUIRED, None)}
 FLUID_BLOCK = dict(BLOCK, velocity=("vec", None, None))
-UNIT = (lambda v: 0 <= v <= 1, "must lie in [0, 1]")
 UNIT_OPEN = (lambda v: 0 <= v < 1, "must lie in [0, 1)")
 #: a 2D wall along a polyline; the fluid lies on the left of the direction of travel
 POLYGON = {"points": ("points", REQUIRED, None), "closed": ("bool", False, None)}
@@ -42,31 +38,18 @@ POLYGON = {"points": ("points", REQUIRED, None), "closed": ("bool", False, None)
 PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, _one_of("pressure", "level")),
          "position": ("vec", REQUIRED, None), "length": ("float", 0.0, NONNEG)}
 
-#: model keys that apply to one model only (a user setting them for the other model is told so)
-MODEL_KEYS = {
-    "classic": {"xsph", "wall_xsph", "clamp_negative_pressure", "wall_layers", "wall_volume"},
-    "bi": {"BCType", "DiffusiveTerm", "ViscousTerm", "EOS", "h", "searchRadius", "mass", "massBoundary",
-           "boundaryElementSize", "delta", "alpha", "dynamicViscosity", "scaleBVTCoef", "coefB", "eps",
-           "enableElasticBounce", "elasticBounce", "elasticFactor", "r_boxFactor",
-           "minimalDistanceFactor", "enableShifting"},
-}
 #: the runtime parameters of the WCSPH-BI spec, accepted flat in a ``[parameters]`` table
-#: under the spec's names, and where each one lives in the case
-SPEC_PARAMETERS = {
-    "dp": "dp", "h": "model.h", "searchRadius": "model.searchRadius", "mass": "model.mass",
-    "massBoundary": "model.massBoundary", "boundaryElementSize": "model.boundaryElementSize",
-    "delta": "model.delta", "alpha": "model.alpha", "dynamicViscosity": "model.dynamicViscosity",
-    "scaleBVTCoef": "model.scaleBVTCoef", "speedOfSound": "physics.speed_of_sound",
-    "coefB": "model.coefB", "rho0": "physics.rho0", "enableElasticBounce": "model.enableElasticBounce",
-    "elasticFactor": "model.elasticFactor", "r_boxFactor": "model.r_boxFactor",
-    "minimalDistanceFactor": "model.minimalDistanceFactor", "dtInit": "time.dtInit", "cfl": "time.cfl",
-    "dtMin": "time.dtMin", "gravity": "physics.gravity", "eps": "model.eps",
+#: under the spec's names, and where each one lives in the case: those of the plug-in
+#: choices come from the registries (``Param(spec=True)``), these from the rest of the case
+SPEC_PARAMETERS = dict({
+    "dp": "dp", "speedOfSound": "physics.speed_of_sound", "rho0": "physics.rho0", "dtInit": "time.dtInit",
+    "cfl": "time.cfl", "dtMin": "time.dtMin", "gravity": "physics.gravity",
     "midpointMaxInterations": "time.midpointMaxInterations",
     "midpointResidualTolerance": "time.midpointResidualTolerance", "midpointRelaxCoef": "time.midpointRelaxCoef",
     "midpointRelaxCoef_0": "time.midpointRelaxCoef_0",
     "midpointResidualMinimalDecay": "time.midpointResidualMinimalDecay",
     "midpointRelaxCoefIncrement": "time.midpointRelaxCoefIncrement",
-}
+}, **plugins.spec_parameters())
 
 SCHEMA = {
     "name": ("str", "case", SAFE_NAME),
@@ -80,51 +63,16 @@ SCHEMA = {
     "tank": (dict(BLOCK, open_top=("bool", True, None)), None, None),
     "obstacle": ([BLOCK], [], None),
     "polygon": ([POLYGON], [], None),
-    "physics": ({
+    "physics": (dict({
         "rho0": ("float", 1000.0, POS),
         "gravity": ("vec", None, None),
         "speed_of_sound": ("float", 0.0, NONNEG),
         "p0": ("float", 0.0, None),
         "kappa": ("float", 0.0, NONNEG),
-        "gamma": ("float", 7.0, POS),
         "gravity_ramp_time": ("float", 0.0, NONNEG),
-    }, {}, None),
-    "model": ({
-        "name": ("str", "classic", _one_of("classic", "bi")),
-        "kernel": ("str", "wendland", _one_of("wendland", "cubic_spline")),
-        "smoothing_ratio": ("float", 2.0, POS),
-        # classic WCSPH with Akinci boundary particles
-        "xsph": ("float", 0.1, UNIT),
-        "wall_xsph": ("float", 0.0, UNIT),
-        "clamp_negative_pressure": ("bool", True, None),
-        "wall_layers": ("int", 0, NONNEG),
-        "wall_volume": ("str", "lattice", _one_of("lattice", "akinci")),
-        # WCSPH-BI: plug-ins and runtime parameters under the spec's names and defaults
-        "BCType": ("str", "BIConservative_numeric", _one_of("BIConservative_numeric", "BIConsistent_numeric")),
-        "DiffusiveTerm": ("str", "MolteniDiffusiveTerm",
-                          _one_of("None", "MolteniDiffusiveTerm", "FourtakasDiffusiveTerm")),
-        "ViscousTerm": ("str", "None", _one_of("None", "ArtificialViscosity", "PhysicalViscosity_MVT",
-                                               "PhysicalViscosity_MGVT")),
-        "EOS": ("str", "LinearizedColeEquationOfState",
-                _one_of("ColeEquationOfState", "LinearizedColeEquationOfState")),
-        "h": ("float", 0.0, NONNEG),
-        "searchRadius": ("float", 0.0, NONNEG),
-        "mass": ("float", 0.0, NONNEG),
-        "massBoundary": ("float", 0.0, NONNEG),
-        "boundaryElementSize": ("float", 0.0, NONNEG),
-        "delta": ("float", 0.1, NONNEG),
-        "alpha": ("float", 0.02, NONNEG),
-        "dynamicViscosity": ("float", 0.0, NONNEG),
-        "scaleBVTCoef": ("float", 1.0, NONNEG),
-        "coefB": ("float", 0.0, NONNEG),
-        "eps": ("float", 0.001, POS),
-        "enableElasticBounce": ("bool", True, None),
-        "elasticBounce": ("str", "conservative", _one_of("conservative", "epsilon")),
-        "elasticFactor": ("float", 1.0, UNIT),
-        "r_boxFactor": ("float", 1.5, POS),
-        "minimalDistanceFactor": ("float", 0.5, NONNEG),
-        "enableShifting": ("bool", True, None),
-    }, {}, None),
+    }, **plugins.physics_params()), {}, None),
+    # the preset, one key per plug-in slot and every choice's parameters (``plugins``)
+    "model": (plugins.model_schema(), {}, None),
     "time": ({
         "end": ("float", REQUIRED, POS),
         "integrator": ("str", "", _one_of("", "symplectic_euler", "verlet", "symplectic_verlet", "midpoint", "rk4",
@@ -245,12 +193,10 @@ def validate(data, src="<case>"):
     data = _lift_parameters(src, data)
     case = _validate(src, "", SCHEMA, data, dim)
     given = data.get("model") if isinstance(data.get("model"), dict) else {}
-    for name, keys in MODEL_KEYS.items():
-        if name != case["model"]["name"]:
-            wrong = sorted(set(given) & keys - MODEL_KEYS[case["model"]["name"]])
-            if wrong:
-                _fail(src, f"model.{wrong[0]}", f"applies to model {name!r}, not to "
-                      f"model {case['model']['name']!r}")
+    plugins.resolve(case["model"])
+    errors, warnings = plugins.problems(case["model"], set(given))
+    if errors:
+        _fail(src, *errors[0])
     if case["polygon"] and dim != 2:
         _fail(src, "polygon", "polygon walls are 2D only; use tank and obstacle boxes in 3D")
     for k, probe in enumerate(case["probes"]):
@@ -282,6 +228,7 @@ def validate(data, src="<case>"):
     if d is not None and d["min"] is not None:
         _check_box(src, "domain", d)
     case["_source"] = src
+    case["_warnings"] = warnings
     return case
 
 

@@ -7,7 +7,7 @@ kinds, after the model:
   tank's inner faces, an obstacle's faces), ``layers`` deep, so fluid and wall particles start
   dp apart everywhere;
 * boundary elements (WCSPH-BI): the wall surface cut into segments (2D) or rectangular faces
-  (3D) of size about ``boundaryElementSize`` (default dp), each with its centre ``x``, size
+  (3D) of size about ``boundaryElementSize`` (a length in 2D, an area in 3D; default dp or dp^2), each with its centre ``x``, size
   ``elementSize`` (length or area) and unit normal ``n``.
 
 **Normal convention.** ``n`` points out of the fluid, into the wall: (0, -1) on a tank floor,
@@ -38,9 +38,25 @@ def lattice(lo, hi, dp):
 
 
 def smoothing_length(case):
-    """h: ``model.h`` when given (WCSPH-BI), else ``smoothing_ratio`` dp."""
+    """h: ``model.h`` when given, else ``smoothing_ratio`` dp."""
     m = case["model"]
-    return m["h"] if m["name"] == "bi" and m["h"] > 0 else m["smoothing_ratio"] * case["dp"]
+    return m["h"] if m["h"] > 0 else m["smoothing_ratio"] * case["dp"]
+
+
+def boundary_kind(case):
+    """'particles' or 'elements', after the case's wall model (``model.BCType``)."""
+    from .registry import SLOTS
+
+    return SLOTS["walls"].choices[case["model"]["BCType"]].boundary
+
+
+def element_size(case):
+    """The edge length of the boundary elements: ``boundaryElementSize`` is a length in 2D
+    and an area in 3D (the spec: "length or area"; TNL-SPH passes dp^2 in 3D); dp when 0."""
+    s = case["model"]["boundaryElementSize"]
+    if s <= 0:
+        return case["dp"]
+    return s if case["dim"] == 2 else math.sqrt(s)
 
 
 def wall_layers(case):
@@ -171,8 +187,8 @@ def estimate(case):
     n_wall = 0.0
     for box in boxes:
         ext = [b - a for a, b in zip(box["min"], box["max"])]
-        if case["model"]["name"] == "bi":
-            size = case["model"]["boundaryElementSize"] or dp
+        if boundary_kind(case) == "elements":
+            size = element_size(case)
             area = 2 * (ext[0] + ext[1]) if dim == 2 else 2 * (ext[0] * ext[1] + ext[1] * ext[2] + ext[0] * ext[2])
             n_wall += area / (size if dim == 2 else size * size)
         else:  # the wall layers are cut from a lattice over the box grown by their thickness
@@ -200,12 +216,13 @@ def build(case):
     """The fluid (a dict: ``x``, ``v``, and ``top``, the top of each particle's block), the walls (a dict: ``x``, and for boundary elements
     ``n`` and ``elementSize``), and the domain box of ``case``."""
     src, dp, dim = case["_source"], case["dp"], case["dim"]
-    if case["model"]["name"] == "bi":
-        x, n, size = boundary_elements(case, case["model"]["boundaryElementSize"] or dp)
+    if boundary_kind(case) == "elements":
+        x, n, size = boundary_elements(case, element_size(case))
         wall_set = {"x": x, "n": n, "elementSize": size}
     else:
         if case["polygon"]:
-            raise CaseError(f"{src}: polygon: polygon walls need boundary elements (model.name = \"bi\")")
+            raise CaseError(f"{src}: polygon: polygon walls need boundary elements (model.BCType = "
+                            "\"BIConservative_numeric\" or \"BIConsistent_numeric\", or model.name = \"bi\")")
         layers = wall_layers(case)
         parts = []
         if case["tank"] is not None:

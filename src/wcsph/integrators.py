@@ -2,7 +2,7 @@
 
 An integrator sees a particle set through ``StateView``: the state (x, v and, for models with
 a continuity equation, rho), the derivatives the model last wrote (dvdt, drhodt), p and m
-(for the energy residual), and its own arrays (x0 v0 rho0: a saved state; dv_t drho_t: the
+(for the energy residual), and its own arrays (x_n v_n rho_n: the state at the start of the step; dv_t drho_t: the
 implicit midpoint's iterated derivatives; k: Runge-Kutta stages; w: per-stage
 coefficients). It calls back ``sim.evaluate(P)`` for the derivatives at the current state.
 A model without a continuity equation (density by summation) has ``continuity = False``; the
@@ -18,7 +18,7 @@ from collections import namedtuple
 import numpy as np
 from numba.extending import register_jitable
 
-StateView = namedtuple("StateView", "x v dvdt rho drhodt p m x0 v0 rho0 dv_t drho_t k w")
+StateView = namedtuple("StateView", "x v dvdt rho drhodt p m x_n v_n rho_n dv_t drho_t k w")
 
 
 class IntegrationError(RuntimeError):
@@ -27,22 +27,22 @@ class IntegrationError(RuntimeError):
 
 # ------------------------------------------------------------------------------ shared
 def make_copy_state(dim, continuity, to_saved):
-    """x0, v0, rho0 <- x, v, rho (``to_saved``), or back."""
+    """x_n, v_n, rho_n <- x, v, rho (``to_saved``), or back."""
 
     @register_jitable
     def copy(i, I, P):
         for d in range(dim):
             if to_saved:
-                I.x0[d, i] = I.x[d, i]
-                I.v0[d, i] = I.v[d, i]
+                I.x_n[d, i] = I.x[d, i]
+                I.v_n[d, i] = I.v[d, i]
             else:
-                I.x[d, i] = I.x0[d, i]
-                I.v[d, i] = I.v0[d, i]
+                I.x[d, i] = I.x_n[d, i]
+                I.v[d, i] = I.v_n[d, i]
         if continuity:
             if to_saved:
-                I.rho0[i] = I.rho[i]
+                I.rho_n[i] = I.rho[i]
             else:
-                I.rho[i] = I.rho0[i]
+                I.rho[i] = I.rho_n[i]
 
     return copy
 
@@ -68,7 +68,7 @@ def make_verlet(dim, continuity, dtype):
     x_n+1 = x_n + dt v_n + dt^2/2 a_n,  v_n+1 = v_n-1 + 2 dt a_n,  rho_n+1 = rho_n-1 + 2 dt Drho_n.
     The spec prints x_n-1 in the position update; x_n is the scheme (a step from n-1 with
     dt would be first order). ``euler`` is the stabilizing step every f_ES steps:
-    v_n+1 = v_n + dt a_n, rho_n+1 = rho_n + dt Drho_n (position as above). v0, rho0 hold the
+    v_n+1 = v_n + dt a_n, rho_n+1 = rho_n + dt Drho_n (position as above). v_n, rho_n hold the
     previous step's v and rho."""
     half, two = dtype(0.5), dtype(2)
 
@@ -78,12 +78,12 @@ def make_verlet(dim, continuity, dtype):
         for d in range(dim):
             v = I.v[d, i]
             I.x[d, i] += dt * v + half * dt * dt * I.dvdt[d, i]
-            I.v[d, i] = I.v0[d, i] + two * dt * I.dvdt[d, i]
-            I.v0[d, i] = v
+            I.v[d, i] = I.v_n[d, i] + two * dt * I.dvdt[d, i]
+            I.v_n[d, i] = v
         if continuity:
             rho = I.rho[i]
-            I.rho[i] = I.rho0[i] + two * dt * I.drhodt[i]
-            I.rho0[i] = rho
+            I.rho[i] = I.rho_n[i] + two * dt * I.drhodt[i]
+            I.rho_n[i] = rho
 
     @register_jitable
     def euler(i, I, P):
@@ -92,11 +92,11 @@ def make_verlet(dim, continuity, dtype):
             v = I.v[d, i]
             I.x[d, i] += dt * v + half * dt * dt * I.dvdt[d, i]
             I.v[d, i] = v + dt * I.dvdt[d, i]
-            I.v0[d, i] = v
+            I.v_n[d, i] = v
         if continuity:
             rho = I.rho[i]
             I.rho[i] = rho + dt * I.drhodt[i]
-            I.rho0[i] = rho
+            I.rho_n[i] = rho
 
     return leapfrog, euler
 
@@ -114,24 +114,24 @@ def make_symplectic_verlet(dim, continuity, dtype):
     def predict(i, I, P):
         h = P.dt * half
         for d in range(dim):
-            I.x0[d, i] = I.x[d, i]
-            I.v0[d, i] = I.v[d, i]
+            I.x_n[d, i] = I.x[d, i]
+            I.v_n[d, i] = I.v[d, i]
             I.x[d, i] += h * I.v[d, i]
             I.v[d, i] += h * I.dvdt[d, i]
         if continuity:
-            I.rho0[i] = I.rho[i]
+            I.rho_n[i] = I.rho[i]
             I.rho[i] += h * I.drhodt[i]
 
     @register_jitable
     def correct(i, I, P):
         h = P.dt * half
         for d in range(dim):
-            v1 = I.v0[d, i] + P.dt * I.dvdt[d, i]
-            I.x[d, i] = I.x0[d, i] + h * (I.v0[d, i] + v1)
+            v1 = I.v_n[d, i] + P.dt * I.dvdt[d, i]
+            I.x[d, i] = I.x_n[d, i] + h * (I.v_n[d, i] + v1)
             I.v[d, i] = v1
         if continuity:
             e = -I.drhodt[i] / I.rho[i] * P.dt
-            I.rho[i] = I.rho0[i] * (two - e) / (two + e)
+            I.rho[i] = I.rho_n[i] * (two - e) / (two + e)
 
     return predict, correct
 
@@ -166,14 +166,14 @@ def make_runge_kutta(stages):
                     if I.w[j] != zero:
                         sx += I.w[j] * I.k[j, d, i]
                         sv += I.w[j] * I.k[j, dim + d, i]
-                I.x[d, i] = I.x0[d, i] + P.dt * sx
-                I.v[d, i] = I.v0[d, i] + P.dt * sv
+                I.x[d, i] = I.x_n[d, i] + P.dt * sx
+                I.v[d, i] = I.v_n[d, i] + P.dt * sv
             if continuity:
                 sr = zero
                 for j in range(S):
                     if I.w[j] != zero:
                         sr += I.w[j] * I.k[j, 2 * dim, i]
-                I.rho[i] = I.rho0[i] + P.dt * sr
+                I.rho[i] = I.rho_n[i] + P.dt * sr
 
         @register_jitable
         def error(i, I, P):
@@ -202,7 +202,7 @@ def make_runge_kutta(stages):
 
 # ------------------------------------------------------------------------------ implicit
 def make_midpoint(dim, continuity, dtype):
-    """Maps of the implicit midpoint scheme (see ``ImplicitMidpoint``). x0, v0, rho0: the
+    """Maps of the implicit midpoint scheme (see ``ImplicitMidpoint``). x_n, v_n, rho_n: the
     state at t_n; dv_t, drho_t: the iterated midpoint derivatives (tilde v, tilde rho of the
     spec); w[0]: the relaxation weight of the previous iterate."""
     half, one = dtype(0.5), dtype(1)
@@ -218,11 +218,11 @@ def make_midpoint(dim, continuity, dtype):
     def midstate(i, I, P):
         h = P.dt * half
         for d in range(dim):
-            v = I.v0[d, i] + h * I.dv_t[d, i]
+            v = I.v_n[d, i] + h * I.dv_t[d, i]
             I.v[d, i] = v
-            I.x[d, i] = I.x0[d, i] + h * v
+            I.x[d, i] = I.x_n[d, i] + h * v
         if continuity:
-            I.rho[i] = I.rho0[i] + h * I.drho_t[i]
+            I.rho[i] = I.rho_n[i] + h * I.drho_t[i]
 
     @register_jitable
     def residual(i, I, P):
@@ -252,17 +252,17 @@ def make_midpoint(dim, continuity, dtype):
     @register_jitable
     def finish(i, I, P):
         for d in range(dim):
-            v = I.v0[d, i] + P.dt * I.dv_t[d, i]
-            I.x[d, i] = I.x0[d, i] + P.dt * half * (I.v0[d, i] + v)
+            v = I.v_n[d, i] + P.dt * I.dv_t[d, i]
+            I.x[d, i] = I.x_n[d, i] + P.dt * half * (I.v_n[d, i] + v)
             I.v[d, i] = v
         if continuity:
-            I.rho[i] = I.rho0[i] + P.dt * I.drho_t[i]
+            I.rho[i] = I.rho_n[i] + P.dt * I.drho_t[i]
 
     return make_copy_state(dim, continuity, True), guess, midstate, residual, relax, finish
 
 
 # ------------------------------------------------------------------------------ schemes
-_SAVED = (("x0", "vector", True), ("v0", "vector", True), ("rho0", "scalar", True))
+_SAVED = (("x_n", "vector", True), ("v_n", "vector", True), ("rho_n", "scalar", True))
 
 
 class Integrator:
@@ -327,7 +327,7 @@ class Verlet(Integrator):
     default; 0: only the first step). v and rho of the previous step travel with the
     particles, so they are not scratch."""
     factory = staticmethod(make_verlet)
-    fields = (("v0", "vector", False), ("rho0", "scalar", False))
+    fields = (("v_n", "vector", False), ("rho_n", "scalar", False))
     order = 2
     stable_cfl, safe_cfl = 0.1, 0.05
     carried = ("count",)

@@ -113,3 +113,15 @@ def kernel_numpy(name, dim, h):
         return gn * np.where(q < 1, -3 + 2.25 * q, far)
 
     return w, gradfac
+
+
+# ------------------------------------------------------------------------------ registry
+from .registry import NONNEG, POS, SLOTS, Choice, Param, add  # noqa: E402
+
+SLOTS["kernel"].params = (
+    Param("smoothing_ratio", 2.0, "h / dp, when h is not given", check=POS),
+    Param("h", 0.0, "smoothing length h; 0: smoothing_ratio dp", unit="m", check=NONNEG, spec=True),
+    Param("searchRadius", 0.0, "neighbour search radius; 0: the support 2h", unit="m", check=NONNEG, spec=True),
+)
+add("kernel", Choice("wendland", "Wendland (1995); Dehnen & Aly (2012)", "C2, W = sigma/h^d (1 - q/2)^4 (2q + 1)"))
+add("kernel", Choice("cubic_spline", "Monaghan & Lattanzio (1985)", "cubic B-spline"))

@@ -21,7 +21,7 @@ from .progress import Progress
 
 
 #: the layout of checkpoint.npz; a checkpoint of another version is refused
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2
 
 
 def case_fingerprint(case):
@@ -29,7 +29,7 @@ def case_fingerprint(case):
     output settings and source path (those may change on a restart)."""
     import hashlib
 
-    keep = {k: v for k, v in case.items() if k not in ("_source", "output")}
+    keep = {k: v for k, v in case.items() if not k.startswith("_") and k != "output"}
     keep["time"] = {k: v for k, v in case["time"].items() if k not in ("end", "max_steps")}
     return hashlib.sha256(json.dumps(keep, sort_keys=True, default=str).encode()).hexdigest()
 
@@ -91,7 +91,7 @@ class Simulation:
         fluid_x, fluid_v = fluid0["x"], fluid0["v"]
         self.domain = (lo, hi)
         rc = SUPPORT * h
-        if m["name"] == "bi" and m["searchRadius"] > 0:
+        if m["searchRadius"] > 0:
             if m["searchRadius"] < rc * (1 - 1e-9):
                 raise CaseError(f"{case['_source']}: model.searchRadius: {m['searchRadius']} is smaller than "
                                 f"the kernel support 2h = {rc:g}")
@@ -100,12 +100,13 @@ class Simulation:
         self.G = self.grid.view()
 
         ph = case["physics"]
-        self.rho0, self.gamma = ph["rho0"], ph["gamma"]
+        self.rho0 = ph["rho0"]
         self.gravity = np.asarray(ph["gravity"], dtype=float)
         # Becker & Teschner's stiffness kappa is c0^2 of p = kappa rho0/gamma ((rho/rho0)^gamma - 1)
         self.c0 = (math.sqrt(ph["kappa"]) if ph["kappa"] > 0 else ph["speed_of_sound"]) \
             or self._default_sound_speed(fluid_x, fluid_v)
         w_np, _ = kernel_numpy(m["kernel"], dim, h)
+        self.warnings = list(case.get("_warnings", ()))  # settings that make results doubtful
 
         self.model = model = get_model(m["name"])(case, be)
         self.mass = model.particle_mass(dp, h, self.rho0, w_np)
@@ -115,7 +116,6 @@ class Simulation:
             case["time"], adaptive=case["time"]["dt"] <= 0))
         tc = case["time"]
         self.cfl = tc["cfl"] or self.integrator.default_cfl()
-        self.warnings = []  # settings that make results doubtful; the command line prints them
         stable = self.integrator.stable_cfl
         if tc["cfl"] and tc["dt"] <= 0 and model.continuity and stable and tc["cfl"] > stable:
             self.warnings.append(f"time.cfl = {tc['cfl']:g} is past the largest stable value measured for "
@@ -125,10 +125,10 @@ class Simulation:
             self.warnings.append(f"h = {h:g} m is smaller than dp = {dp:g} m: a particle has almost no "
                                  "neighbours and the SPH sums are meaningless")
         kp = dict(kernel_params(m["kernel"], dim, h), rc=rc)
-        self.P = model.params(kp, self.rho0, self.gamma, self.c0, self.gravity, 1.0)
+        self.P = model.params(kp, self.rho0, self.c0, h, self.gravity, 1.0, w_np)
 
         n = fluid_x.shape[1]
-        rho = model.initial_density(fluid_x, fluid0["top"], self.rho0, self.c0, self.gamma, self.gravity)
+        rho = model.initial_density(fluid_x, fluid0["top"], self.P, self.gravity)
         self.fluid = ParticleSet("fluid", dim, {"x": be.to_device(fluid_x.astype(dtype)),
                                                "v": be.to_device(fluid_v.astype(dtype))})
         for name, kind, scratch in list(model.fluid_fields()) + list(self.integrator.fields):
@@ -211,13 +211,13 @@ class Simulation:
         lacks, which the scheme then never reads."""
         a = self.fluid.arrays
         x, v, rho = a["x"], a["v"], a["rho"]
-        return StateView(x, v, a["dvdt"], rho, a.get("drhodt", rho), a["p"], a["m"], a.get("x0", x), a.get("v0", v),
-                         a.get("rho0", rho), a.get("dv_t", v), a.get("drho_t", rho),
+        return StateView(x, v, a["dvdt"], rho, a.get("drhodt", rho), a["p"], a["m"], a.get("x_n", x), a.get("v_n", v),
+                         a.get("rho_n", rho), a.get("dv_t", v), a.get("drho_t", rho),
                          a.get("k", self._placeholders["k"]), self._placeholders["w"] if w is None else w)
 
     def params_for(self, dt):
         """The model parameters for a step of size ``dt`` from the current time."""
-        return self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t))
+        return self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t), self.vmax)
 
     def evaluate(self, P):
         """The model's derivatives at the current state (called by the integrator)."""
@@ -238,7 +238,7 @@ class Simulation:
             raise SimulationError(f"{e} at t = {self.t:.6g} s (step {self.steps})") from None
         if dt != float(self.P.dt):
             self.P = self.params_for(dt)
-        self.model.correct(self.fluid, self.walls, self.P, self.G)
+        self.model.correct(self.fluid, self.walls, self.P, self.G, self.steps + 1)
         self.t += dt
         self.steps += 1
         if self.fluid.n == 0:
@@ -266,7 +266,7 @@ class Simulation:
         from . import __version__
 
         meta = {"format": "wcsph checkpoint", "version": CHECKPOINT_VERSION, "wcsph": __version__,
-                "case": {k: v for k, v in self.case.items() if k != "_source"},
+                "case": {k: v for k, v in self.case.items() if not k.startswith("_")},
                 "fingerprint": case_fingerprint(self.case), "t": self.t, "steps": self.steps,
                 "evaluations": self.evaluations, "dropped": self.dropped, "vmax": self.vmax, "amax": self.amax,
                 "n": self.fluid.n, "integrator": self.integrator.carried_state(), "output": output_state}

@@ -1,13 +1,7 @@
-"""Models: declarations of which physics terms each interaction pass uses."""
+"""The model: one class composed from the plug-in slots; ``model.name`` picks the defaults."""
 
 
 def get_model(name):
-    if name == "classic":
-        from .classic import ClassicWCSPH
+    from .wcsph import WCSPH
 
-        return ClassicWCSPH
-    if name == "bi":
-        from .bi import WCSPHBI
-
-        return WCSPHBI
-    raise ValueError(f"unknown model {name!r}")
+    return WCSPH

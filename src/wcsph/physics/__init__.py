@@ -46,3 +46,60 @@ class Ctx:
 
         dtype = np.dtype(dtype).type
         return cls(dtype, dim, *make_kernel(kernel, dtype))
+
+
+class Correction:
+    """A correction made after each time step (or every ``every`` steps): a pass over fluid
+    neighbours (``fluid``) and wall neighbours (``wall``, or None) from ``init`` to ``store``,
+    which writes the particle's correction into a scratch field (``corr``, a vector, or
+    ``rho_corr``) so that no particle moves while its neighbours read it; then the map
+    ``apply`` adds it to the state. ``dt`` in P is the step just taken."""
+
+    def __init__(self, init, fluid, store, apply, wall=None, every=1):
+        self.init, self.fluid, self.store, self.apply, self.wall, self.every = init, fluid, store, apply, wall, every
+
+
+def vector_init(ctx):
+    zero = ctx.zero
+
+    @register_jitable
+    def init(i, I, P):
+        return (zero, zero, zero)
+
+    return init
+
+
+def make_store_corr(ctx):
+    """Store a (cx, cy, cz) accumulator into ``corr``."""
+    dim = ctx.dim
+
+    @register_jitable
+    def store(i, I, P, acc):
+        I.corr[0, i] = acc[0]
+        I.corr[1, i] = acc[1]
+        if dim == 3:
+            I.corr[2, i] = acc[2]
+
+    return store
+
+
+def make_apply(ctx, field, scale_dt):
+    """``field`` (``x`` or ``v``) += corr (times P.dt with ``scale_dt``)."""
+    dim, one = ctx.dim, ctx.dtype(1)
+    if field == "x":
+        @register_jitable
+        def get(I):
+            return I.x
+    else:
+        @register_jitable
+        def get(I):
+            return I.v
+
+    @register_jitable
+    def apply(i, I, P):
+        a = get(I)
+        k = P.dt if scale_dt else one
+        for d in range(dim):
+            a[d, i] += k * I.corr[d, i]
+
+    return apply

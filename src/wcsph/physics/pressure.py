@@ -1,51 +1,65 @@
-"""Pressure terms. Classic model: the accumulator is the acceleration (ax, ay, az) and ``pr``
-is p/rho^2 of each particle, stored by the density pass so that no pair divides. WCSPH-BI:
-the accumulator of ``physics.interaction`` (force density slots)."""
+"""Pressure gradient of the momentum equation. Slot ``pressure``.
+
+* ``BISymmetric`` (WCSPH-BI spec): f_i -= sum_j (p_i + p_j) grad_i W_ij V_j, a force density
+  (divided by rho_i and the Shepard factor);
+* ``Monaghan1992`` (Monaghan 1992; Becker & Teschner 2007): a_i -= sum_j m_j (p_i/rho_i^2 +
+  p_j/rho_j^2) grad_i W_ij, with ``pr`` = p/rho^2 stored per particle so no pair divides;
+* ``Monaghan1992ArtificialViscosity``: the same with Monaghan's Pi_ij inside the sum (third
+  spec), alpha and beta.
+
+Each form has its wall part for both wall models: the boundary integral over elements
+(symmetric form for consistent schemes, conservative form 2 p_i sum n W S otherwise), or the
+mirrored pressure over boundary particles (p_k = p_i, Band et al. 2018). With the CSPM kernel
+correction every form becomes the corrected difference form -sum_j (p_j - p_i) L_i grad_i W_ij
+V_j over fluid neighbours, which is the whole first-order consistent gradient by itself: the
+wall part is then left out (walls still act through the continuity equation and the wall
+corrections).
+"""
 from numba.extending import register_jitable
 
-from .interaction import add_force
+from ..registry import NONNEG, Choice, Param, add
+from .interaction import Terms, add_accel, add_force
 
 
-def make_symmetric_pressure(ctx):
-    """a_i -= m_j (p_i/rho_i^2 + p_j/rho_j^2) grad W_ij: the momentum- and angular-momentum-
-    conserving form of Monaghan (1992), used by Becker & Teschner (2007)."""
-
-    kernel_grad = ctx.grad
-
-    @register_jitable
-    def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        f = -J.m[j] * (I.pr[i] + J.pr[j]) * kernel_grad(r, P)
-        return (acc[0] + f * dx, acc[1] + f * dy, acc[2] + f * dz)
-
-    return term
-
-
-def make_akinci_pressure(ctx):
-    """Boundary pressure force of Akinci et al. (2012) eq. 10 with pressure mirroring
-    (p_k = p_i, rho_k = rho_i, Band et al. 2018): a_i -= Psi_k 2 p_i/rho_i^2 grad W_ik.
-    The mirrored form makes a full-support wall act like the fluid it replaces, which holds a
-    hydrostatic column at rest; Akinci's single term leaves half the wall force missing."""
-
-    kernel_grad = ctx.grad
-
-    @register_jitable
-    def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        f = -J.psi[j] * (I.pr[i] + I.pr[i]) * kernel_grad(r, P)
-        return (acc[0] + f * dx, acc[1] + f * dy, acc[2] + f * dz)
-
-    return term
-
-
-# ------------------------------------------------------------------ WCSPH-BI (force density)
 def make_bi_pressure(ctx):
     """f_i -= <grad p>_i^{Omega,sym} = sum_j (p_i + p_j) grad_i W_ij V_j (WCSPH-BI spec;
-    antisymmetric in i, j, so fluid pairs conserve linear and angular momentum)."""
+    antisymmetric in i, j, so fluid pairs conserve linear and angular momentum). Over boundary
+    particles (mirrored pressure) use ``make_mirrored_volume_pressure``."""
     grad = ctx.grad
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         f = -(I.p[i] + J.p[j]) * grad(r, P) * J.vol[j]
         return add_force(acc, f * dx, f * dy, f * dz)
+
+    return term
+
+
+def make_mirrored_volume_pressure(ctx):
+    """The symmetric volume form over boundary particles with p_k = p_i: f_i -= 2 p_i
+    grad_i W_ik V_k, V_k = Psi_k/rho0."""
+    grad = ctx.grad
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        f = -(I.p[i] + I.p[i]) * grad(r, P) * J.vol[j]
+        return add_force(acc, f * dx, f * dy, f * dz)
+
+    return term
+
+
+def make_corrected_pressure(ctx):
+    """CSPM: f_i -= sum_j (p_j - p_i) L_i grad_i W_ij V_j (Chen et al. 1999), exact for a
+    linear pressure field."""
+    grad, dim = ctx.grad, ctx.dim
+    from .correction import corrected_gradient
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        g = grad(r, P)
+        gx, gy, gz = corrected_gradient(i, I, g * dx, g * dy, g * dz, dim)
+        f = -(J.p[j] - I.p[i]) * J.vol[j]
+        return add_force(acc, f * gx, f * gy, f * gz)
 
     return term
 
@@ -64,3 +78,102 @@ def make_bi_boundary_pressure(ctx, conservative):
         return add_force(acc, f * J.n[0, j], f * J.n[1, j], fz)
 
     return term
+
+
+def make_symmetric_pressure(ctx):
+    """a_i -= m_j (p_i/rho_i^2 + p_j/rho_j^2) grad W_ij: the momentum- and angular-momentum-
+    conserving form of Monaghan (1992), used by Becker & Teschner (2007)."""
+
+    kernel_grad = ctx.grad
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        f = -J.m[j] * (I.pr[i] + J.pr[j]) * kernel_grad(r, P)
+        return add_accel(acc, f * dx, f * dy, f * dz)
+
+    return term
+
+
+def make_akinci_pressure(ctx):
+    """Boundary pressure force of Akinci et al. (2012) eq. 10 with pressure mirroring
+    (p_k = p_i, rho_k = rho_i, Band et al. 2018): a_i -= Psi_k 2 p_i/rho_i^2 grad W_ik.
+    The mirrored form makes a full-support wall act like the fluid it replaces, which holds a
+    hydrostatic column at rest; Akinci's single term leaves half the wall force missing."""
+
+    kernel_grad = ctx.grad
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        f = -J.psi[j] * (I.pr[i] + I.pr[i]) * kernel_grad(r, P)
+        return add_accel(acc, f * dx, f * dy, f * dz)
+
+    return term
+
+
+def make_monaghan_pi(ctx, sound):
+    """a_i -= sum_j m_j Pi_ij grad_i W_ij with Monaghan's (1992) artificial viscosity, as the
+    third spec writes it: Pi_ij = (-alpha c_ij mu_ij + beta mu_ij^2) / rho_ij for approaching
+    pairs (v_ij . x_ij < 0), else 0; mu_ij = h v_ij . x_ij / (r^2 + eta^2), c_ij and rho_ij
+    the means of the pair's sound speeds (from the EOS, ``sound``) and densities. eta^2 =
+    ``eps`` h^2. m_j = V_j rho_j, which is Psi_k over boundary particles (rho = rho0, c = c0
+    there). ``P.av_alpha_h`` = alpha h, ``P.av_beta_h2`` = beta h^2. A min, not a branch,
+    selects the approaching pairs (the loop stays vectorised)."""
+    grad, dim, zero, half = ctx.grad, ctx.dim, ctx.zero, ctx.dtype(0.5)
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        vz = (I.v[2, i] - J.v[2, j]) * dz if dim == 3 else zero
+        x = min((I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz, zero) / (r * r + P.eps_h2)
+        rho_i, rho_j = I.rho[i], J.rho[j]
+        c = half * (sound(rho_i, P) + sound(rho_j, P))
+        pi = (-P.av_alpha_h * c * x + P.av_beta_h2 * x * x) / (half * (rho_i + rho_j))
+        f = -J.vol[j] * rho_j * pi * grad(r, P)
+        return add_accel(acc, f * dx, f * dy, f * dz)
+
+    return term
+
+
+def _wall_part(ctx, q, particles_term):
+    if q.corrected:
+        return []
+    if q.boundary == "elements":
+        return [make_bi_boundary_pressure(ctx, q.conservative)]
+    return [particles_term(ctx)]
+
+
+def _bulk(ctx, q, term):
+    return make_corrected_pressure(ctx) if q.corrected else term(ctx)
+
+
+def _build_bi(ctx, q):
+    return Terms([_bulk(ctx, q, make_bi_pressure)], _wall_part(ctx, q, make_mirrored_volume_pressure))
+
+
+def _build_monaghan(ctx, q):
+    return Terms([_bulk(ctx, q, make_symmetric_pressure)], _wall_part(ctx, q, make_akinci_pressure))
+
+
+def _build_monaghan_av(ctx, q):
+    t = _build_monaghan(ctx, q)
+    pi = make_monaghan_pi(ctx, q.sound)
+    t.fluid.append(pi)
+    if q.boundary == "particles":
+        t.wall.append(pi)
+    return t
+
+
+add("pressure", Choice(
+    "BISymmetric", "WCSPH-BI spec: <grad p>^{Omega,sym} and its boundary forms",
+    "f_i -= sum_j (p_i + p_j) grad_i W_ij V_j", build=_build_bi))
+add("pressure", Choice(
+    "Monaghan1992", "Monaghan (1992); Becker & Teschner (2007) eq. 6",
+    "a_i -= sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) grad_i W_ij", build=_build_monaghan))
+add("pressure", Choice(
+    "Monaghan1992ArtificialViscosity", "third spec: momentum equation with artificial viscosity (Monaghan 1992)",
+    "a_i -= sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2 + Pi_ij) grad_i W_ij, Pi_ij with alpha and beta",
+    params=(Param("av_alpha", 0.01, "alpha of Pi_ij (linear, bulk viscosity)", check=NONNEG),
+            Param("av_beta", 0.0, "beta of Pi_ij (quadratic, against interpenetration at high Mach)",
+                  check=NONNEG)),
+    p_fields=("av_alpha_h", "av_beta_h2"),
+    values=lambda q: {"av_alpha_h": q.m["av_alpha"] * q.h, "av_beta_h2": q.m["av_beta"] * q.h * q.h},
+    build=_build_monaghan_av))

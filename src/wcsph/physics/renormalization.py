@@ -2,17 +2,17 @@
 interpolate from the fluid."""
 from numba.extending import register_jitable
 
-from .interaction import add_gamma
+from .interaction import add_shepard
 
 
 def make_shepard(ctx):
     """gamma_i = sum_j W_ij V_j over fluid particles (the self pair included): 1 in the bulk,
-    less near walls and the free surface."""
+    less near walls and the free surface. Stored as the field ``shepard``."""
     w = ctx.w
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        return add_gamma(acc, w(r, P) * J.vol[j])
+        return add_shepard(acc, w(r, P) * J.vol[j])
 
     return term
 
@@ -32,3 +32,26 @@ def make_boundary_interpolation(ctx):
         return (acc[0] + p * wv, acc[1] + J.rho[j] * wv, acc[2] + wv)
 
     return term
+
+
+def make_boundary_store(ctx):
+    """p_b and rho_b of an element from the interpolation sums, clamped at p0 and rho0 as
+    TNL-SPH clamps the wall density (an element by a thin or splashing fluid layer would
+    otherwise get a negative pressure and pull the fluid into the wall); p0, rho0 with no
+    fluid neighbour."""
+    zero = ctx.zero
+
+    @register_jitable
+    def init(i, I, P):
+        return (zero, zero, zero)
+
+    @register_jitable
+    def store(i, I, P, acc):
+        if acc[2] > zero:
+            I.p[i] = max(acc[0] / acc[2], P.p0)
+            I.rho[i] = max(acc[1] / acc[2], P.rho0)
+        else:
+            I.p[i] = P.p0
+            I.rho[i] = P.rho0
+
+    return init, store

@@ -1,54 +1,36 @@
-"""Viscous terms. Classic model: the accumulator is the acceleration (ax, ay, az). WCSPH-BI:
-the accumulator of ``physics.interaction`` (force density slots)."""
+"""Viscous terms of the momentum equation, slot ``ViscousTerm``. Each adds rho_i times its
+acceleration to the force slot of the accumulator; the coefficient comes in ``P.visc`` (bulk)
+and ``P.wall_visc`` (walls, times ``scaleBVTCoef``):
+  MGVT: 2 (n + 2) mu,  MVT: 2 mu,  artificial: alpha h c0.
+psi_ij = v_ij . x_ij / (r^2 + eps h^2) is shared by the bulk terms.
+
+Over boundary elements the wall term is the spec's boundary integral; over boundary particles
+(Akinci walls) the bulk term itself, with the particles' volume Psi/rho0, density rho0 and
+velocity: the no-slip wall of Morris, Fox & Zhu (1997) and Adami, Hu & Adams (2012).
+"""
 from numba.extending import register_jitable
 
-from .interaction import add_force
+from ..registry import NONNEG, Choice, Param, add
+from .interaction import Terms, add_force
 
 
-def make_xsph(ctx):
-    """XSPH velocity smoothing of Monaghan (1989) as in Becker & Teschner (2007):
-    v_i <- v_i + alpha sum_j m_j/rho_j (v_j - v_i) W_ij, applied as the acceleration
-    alpha/dt sum_j ... so that one symplectic Euler step reproduces the smoothing exactly
-    (the way SPlisHSPlasH applies it). ``P.xsph_dt`` = alpha/dt, ``vol`` = m/rho."""
-
-    kernel_w, dim, zero = ctx.w, ctx.dim, ctx.zero
-
-    @register_jitable
-    def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        f = P.xsph_dt * J.vol[j] * kernel_w(r, P)
-        fz = f * (J.v[2, j] - I.v[2, i]) if dim == 3 else zero
-        return (acc[0] + f * (J.v[0, j] - I.v[0, i]), acc[1] + f * (J.v[1, j] - I.v[1, i]),
-                acc[2] + fz)
-
-    return term
+def _coef(wall):
+    if wall:
+        @register_jitable
+        def coef(P):
+            return P.wall_visc
+    else:
+        @register_jitable
+        def coef(P):
+            return P.visc
+    return coef
 
 
-def make_xsph_wall(ctx):
-    """XSPH towards the wall velocity over boundary particles with volume Psi_k/rho0
-    (SPlisHSPlasH's boundary viscosity for Akinci walls). ``P.wall_xsph_dt`` = alpha_b/dt."""
-
-    kernel_w, dim, zero = ctx.w, ctx.dim, ctx.zero
-
-    @register_jitable
-    def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        f = P.wall_xsph_dt * J.psi[j] * P.rho0_inv * kernel_w(r, P)
-        fz = f * (J.v[2, j] - I.v[2, i]) if dim == 3 else zero
-        return (acc[0] + f * (J.v[0, j] - I.v[0, i]), acc[1] + f * (J.v[1, j] - I.v[1, i]),
-                acc[2] + fz)
-
-    return term
-
-
-# ------------------------------------------------------------------ WCSPH-BI (force density)
-# Each term adds rho_i times its acceleration to the force slot; the coefficient comes in
-# ``P.visc`` (bulk) and ``P.wall_visc`` (walls, times scaleBVTCoef), set by the model:
-#   MGVT: 2 (n + 2) mu,  MVT: 2 mu,  artificial: alpha h c0.
-# psi_ij = v_ij . x_ij / (r^2 + eps h^2) is shared by the bulk terms.
-
-def make_artificial_viscosity(ctx):
+def make_artificial_viscosity(ctx, wall=False):
     """Monaghan (1992) artificial viscosity, active between approaching particles:
     Dv_i/Dt += alpha h c0 sum_j m_j psi_ij / rho_bar_ij grad_i W_ij, rho_bar the mean density."""
     grad, dim, zero, two = ctx.grad, ctx.dim, ctx.zero, ctx.dtype(2)
+    coef = _coef(wall)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
@@ -58,38 +40,40 @@ def make_artificial_viscosity(ctx):
         vx = min((I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz, zero)
         rho_i, rho_j = I.rho[i], J.rho[j]
         # one division per pair, not two
-        f = P.visc * two * rho_i * rho_j * vx / ((rho_i + rho_j) * (r * r + P.eps_h2)) * grad(r, P) * J.vol[j]
+        f = coef(P) * two * rho_i * rho_j * vx / ((rho_i + rho_j) * (r * r + P.eps_h2)) * grad(r, P) * J.vol[j]
         return add_force(acc, f * dx, f * dy, f * dz)
 
     return term
 
 
-def make_mgvt(ctx):
+def make_mgvt(ctx, wall=False):
     """Monaghan & Gingold (1983) form of mu <Lap v + 2 grad div v>:
     2 (n + 2) mu sum_j psi_ij grad_i W_ij V_j (Monaghan 2005, sec. 6.2); the force is along
     x_ij, so fluid pairs conserve angular momentum."""
     grad, dim, zero = ctx.grad, ctx.dim, ctx.zero
+    coef = _coef(wall)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         vz = (I.v[2, i] - J.v[2, j]) * dz if dim == 3 else zero
         vx = (I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz
-        f = P.visc * vx / (r * r + P.eps_h2) * grad(r, P) * J.vol[j]
+        f = coef(P) * vx / (r * r + P.eps_h2) * grad(r, P) * J.vol[j]
         return add_force(acc, f * dx, f * dy, f * dz)
 
     return term
 
 
-def make_mvt(ctx):
+def make_mvt(ctx, wall=False):
     """Morris, Fox & Zhu (1997) Laplacian, mu <Lap v> = 2 mu sum_j V_j v_ij
     (x_ij . grad_i W_ij) / (r^2 + eps h^2). (The spec's table prints v_ij . x_ij grad W, the
     Monaghan-Gingold shape; Morris's operator is the one above.)"""
     grad, dim, zero = ctx.grad, ctx.dim, ctx.zero
+    coef = _coef(wall)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         r2 = r * r
-        f = P.visc * r2 * grad(r, P) / (r2 + P.eps_h2) * J.vol[j]
+        f = coef(P) * r2 * grad(r, P) / (r2 + P.eps_h2) * J.vol[j]
         fz = f * (I.v[2, i] - J.v[2, j]) if dim == 3 else zero
         return add_force(acc, f * (I.v[0, i] - J.v[0, j]), f * (I.v[1, i] - J.v[1, j]), fz)
 
@@ -120,5 +104,41 @@ def make_boundary_viscosity(ctx, artificial):
     return term
 
 
-VISCOUS_TERMS = {"ArtificialViscosity": make_artificial_viscosity, "PhysicalViscosity_MVT": make_mvt,
-                 "PhysicalViscosity_MGVT": make_mgvt}
+MU = Param("dynamicViscosity", 0.0, "dynamic viscosity mu", unit="Pa s", check=NONNEG, spec=True)
+SCALE = Param("scaleBVTCoef", 1.0, "scale of the wall viscous term", check=NONNEG, spec=True)
+
+
+def _builder(make, artificial=False):
+    def build(ctx, q):
+        wall = make_boundary_viscosity(ctx, artificial) if q.boundary == "elements" else make(ctx, wall=True)
+        return Terms([make(ctx)], [wall])
+    return build
+
+
+def _values(coef):
+    def values(q):
+        c = coef(q)
+        return {"visc": c, "wall_visc": c * q.m["scaleBVTCoef"]}
+    return values
+
+
+add("viscous", Choice("None", "-", "inviscid"))
+add("viscous", Choice(
+    "ArtificialViscosity", "WCSPH-BI spec; Monaghan (1992)", "alpha h c0 sum_j m_j psi_ij / rho_ij grad W_ij, approaching pairs",
+    params=(Param("alpha", 0.02, "alpha of the artificial viscosity alpha h c0", check=NONNEG, spec=True), SCALE),
+    p_fields=("visc", "wall_visc"), values=_values(lambda q: q.m["alpha"] * q.h * q.c0),
+    build=_builder(make_artificial_viscosity, artificial=True)))
+add("viscous", Choice(
+    "PhysicalViscosity_MVT", "Morris, Fox & Zhu (1997); WCSPH-BI spec (MVT row)", "2 mu sum_j V_j v_ij x_ij.grad W_ij/(r^2+eps h^2)",
+    params=(MU, SCALE), p_fields=("visc", "wall_visc"), values=_values(lambda q: 2.0 * q.m["dynamicViscosity"]),
+    build=_builder(make_mvt)))
+add("viscous", Choice(
+    "PhysicalViscosity_MGVT", "Monaghan & Gingold (1983); WCSPH-BI spec (MGVT row)",
+    "2 (n+2) mu sum_j psi_ij grad W_ij V_j", params=(MU, SCALE), p_fields=("visc", "wall_visc"),
+    values=_values(lambda q: 2.0 * (q.dim + 2) * q.m["dynamicViscosity"]), build=_builder(make_mgvt)))
+
+
+def kinematic_viscosity(case):
+    """nu of the case's physical viscous term (0 for none or artificial), for the time step."""
+    m = case["model"]
+    return m["dynamicViscosity"] / case["physics"]["rho0"] if m["ViscousTerm"].startswith("Physical") else 0.0

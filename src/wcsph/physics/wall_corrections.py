@@ -1,26 +1,29 @@
 """Corrections that keep fluid particles off boundary elements, applied after a time step
-(after Cercos-Pita 2015, AQUAgpusph). The pass visits the elements b near fluid particle i
-with the accumulator (vx, vy, vz, sx, sy, sz): i's velocity and its position shift so far,
-so that a correction made for one element is seen by the next (a particle near a flat wall
-is bounced or shifted once, not once per element).
+(after Cercos-Pita 2015, AQUAgpusph; WCSPH-BI spec). The pass visits the elements b near fluid
+particle i with the accumulator (vx, vy, vz, sx, sy, sz): i's velocity and its position shift
+so far, so that a correction made for one element is seen by the next (a particle near a flat
+wall is bounced or shifted once, not once per element).
 
 An element acts on a particle whose projection on the element's plane lies within
-r_box = ``r_boxFactor`` dp of its centre, and which is at most the minimal distance
-h_fac dp (``minimalDistanceFactor``) behind the plane; its distance from the wall is
-dist = -(x_i - x_b) . n_b (n_b points out of the fluid).
+r_box = ``r_boxFactor`` dp of its centre, and which is not further behind the plane than it
+may be pushed back; its distance from the wall is dist = -(x_i - x_b) . n_b (n_b points out of
+the fluid).
 """
 from numba.extending import register_jitable
 
 
 def make_wall_corrections(ctx, bounce, epsilon_bounce, shift):
     """``bounce``: elastic bounce. A particle approaching the element (v_n = (v_i - v_b) . n_b
-    > 0) that would come closer than h_fac dp within the next step (dist - dt v_n <= h_fac dp)
-    has its normal velocity reflected, v_i -= (1 + e) v_n n_b: e = 1 for the conservative
-    bounce (kinetic energy kept), e = ``elasticFactor`` for the epsilon bounce.
-    ``shift``: near-boundary volume-correction particle shifting (NBVC-PST): a particle
-    closer than h_fac dp (with h_fac = 1/2 the particle's volume, a cell of side dp, would
-    reach into the wall) is moved along n_b back to that distance."""
-    dim, zero, one = ctx.dim, ctx.zero, ctx.dtype(1)
+    > 0) that would come closer than h_fac dp (``minimalDistanceFactor``) within the next step
+    (dist - dt v_n <= h_fac dp) has its normal velocity reflected, v_i -= (1 + e) v_n n_b:
+    e = 1 for the conservative bounce (kinetic energy kept), e = ``elasticFactor`` for the
+    epsilon bounce.
+    ``shift``: near-boundary volume-correction particle shifting (NBVC-PST): a particle closer
+    to the wall than its own radius R_i = (m_i/rho_i)^(1/d) / 2 (TNL-SPH: half the side of the
+    cell its volume fills, so the volume does not reach into the wall) is moved along n_b back
+    to that distance."""
+    dim, zero, one, half = ctx.dim, ctx.zero, ctx.dtype(1), ctx.dtype(0.5)
+    inv_dim = ctx.dtype(1.0 / dim)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
@@ -31,7 +34,8 @@ def make_wall_corrections(ctx, bounce, epsilon_bounce, shift):
         nz = J.n[2, j] if dim == 3 else zero
         d = rx * nx + ry * ny + rz * nz
         dist = -d
-        if dist < -P.min_dist or rx * rx + ry * ry + rz * rz - d * d >= P.r_box2:
+        radius = half * (I.m[i] / I.rho[i]) ** inv_dim
+        if dist < -max(P.min_dist, radius) or rx * rx + ry * ry + rz * rz - d * d >= P.r_box2:
             return acc
         if bounce:
             vbz = J.v[2, j] if dim == 3 else zero
@@ -40,8 +44,8 @@ def make_wall_corrections(ctx, bounce, epsilon_bounce, shift):
                 e = P.elastic if epsilon_bounce else one
                 k = (one + e) * vn
                 vx, vy, vz = vx - k * nx, vy - k * ny, vz - k * nz
-        if shift and dist < P.min_dist:
-            s = P.min_dist - dist
+        if shift and dist < radius:
+            s = radius - dist
             sx, sy, sz = sx - s * nx, sy - s * ny, sz - s * nz
         return (vx, vy, vz, sx, sy, sz)
 

@@ -1,0 +1,327 @@
+"""The WCSPH model, composed from the choices of the plug-in slots (``registry``).
+
+``model.name`` is a preset: it picks each slot's default (``classic``: Becker & Teschner 2007
+with Akinci et al. 2012 walls, density summation, Tait EOS, XSPH on the momentum; ``bi``: the
+WCSPH-BI model of TNL-SPH, continuity density, Cole EOS, boundary elements, Molteni
+diffusion). Any slot may be set in the case; ``plugins.problems`` refuses the combinations the
+physics does not allow.
+
+Per derivative evaluation (the spec's initialize / interact / finalize):
+
+1. density: summation pass (rho, then p, p/rho^2 and V = m/rho from the EOS), or, with
+   continuity density, a map computing p, p/rho^2 and V from the advected rho;
+2. consistent wall model only: each element gets p_b and rho_b from its fluid neighbours;
+3. CSPM only: a pass storing each particle's gradient correction L_i;
+4. interaction: one pass over fluid and wall neighbours, the terms of every slot composed
+   into one pair function (``physics.interaction`` gives the accumulator);
+5. finalize (the pass's store): Drho/Dt = (-rho <div v> + delta h c0 D) / gamma,
+   Dv/Dt = f / (rho gamma) + a + g; gamma = 1 without the consistent wall model.
+
+After each time step the corrections run: DPC, XSPH on the positions, shifting, the CSPM
+density re-initialisation, and the elastic bounce and NBVC-PST of boundary elements.
+"""
+from collections import namedtuple
+
+import numpy as np
+from numba.extending import register_jitable
+
+from .. import plugins
+from ..physics import Correction, Ctx, compose
+from ..physics.correction import make_cspm_matrix, make_cspm_store, make_shepard_density, make_shepard_density_store
+from ..physics.density import make_akinci_volume
+from ..physics.renormalization import make_boundary_interpolation, make_boundary_store, make_shepard
+from ..physics.viscosity import kinematic_viscosity
+from ..physics.wall_corrections import make_wall_corrections
+
+FluidView = namedtuple("FluidView", "x v dvdt rho drhodt p pr vol m shepard L corr rho_corr cell start")
+WallView = namedtuple("WallView", "x v n elementSize psi vol p rho cell start")
+#: fields a view may lack in a case, by number of array dimensions (a stand-in is passed)
+_PLACEHOLDER_NDIM = {"drhodt": 1, "shepard": 1, "L": 2, "corr": 2, "rho_corr": 1, "n": 2, "elementSize": 1,
+                     "psi": 1, "vol": 1, "p": 1, "rho": 1, "pr": 1}
+
+
+def _stores(ctx, eos, continuity, consistent):
+    zero, one, dim = ctx.zero, ctx.dtype(1), ctx.dim
+
+    @register_jitable
+    def state(i, I, P, rho):
+        p = eos(rho, P)
+        I.p[i] = p
+        I.pr[i] = p / (rho * rho)
+        I.vol[i] = I.m[i] / rho
+
+    @register_jitable
+    def initialize(i, I, P):
+        state(i, I, P, I.rho[i])
+
+    @register_jitable
+    def init_scalar(i, I, P):
+        return zero
+
+    @register_jitable
+    def store_density(i, I, P, acc):
+        I.rho[i] = acc
+        state(i, I, P, acc)
+
+    @register_jitable
+    def init9(i, I, P):
+        return (zero, zero, zero, zero, zero, zero, zero, zero, zero)
+
+    @register_jitable
+    def finalize(i, I, P, acc):
+        gam = acc[8] if consistent else one
+        if consistent:
+            I.shepard[i] = gam
+        rho = I.rho[i]
+        if continuity:
+            I.drhodt[i] = (P.delta_hc0 * acc[1] - rho * acc[0]) / gam
+        k = one / (rho * gam)
+        I.dvdt[0, i] = acc[2] * k + acc[5] + P.gx
+        I.dvdt[1, i] = acc[3] * k + acc[6] + P.gy
+        if dim == 3:
+            I.dvdt[2, i] = acc[4] * k + acc[7] + P.gz
+
+    @register_jitable
+    def init_wall_correction(i, I, P):
+        vz = I.v[2, i] if dim == 3 else zero
+        return (I.v[0, i], I.v[1, i], vz, zero, zero, zero)
+
+    @register_jitable
+    def store_wall_correction(i, I, P, acc):
+        I.v[0, i] = acc[0]
+        I.v[1, i] = acc[1]
+        I.x[0, i] += acc[3]
+        I.x[1, i] += acc[4]
+        if dim == 3:
+            I.v[2, i] = acc[2]
+            I.x[2, i] += acc[5]
+
+    @register_jitable
+    def apply_density(i, I, P):
+        I.rho[i] = I.rho_corr[i]
+
+    return dict(initialize=initialize, init_scalar=init_scalar, store_density=store_density, init9=init9,
+                finalize=finalize, init_wall_correction=init_wall_correction,
+                store_wall_correction=store_wall_correction, apply_density=apply_density)
+
+
+class WCSPH:
+    fluid_view = FluidView
+    wall_view = WallView
+
+    def __init__(self, case, backend):
+        self.case = case
+        self.backend = backend
+        self.dim = dim = case["dim"]
+        self.dtype = dtype = np.dtype(case["precision"]).type
+        self.m = m = case["model"]
+        self.name = m["name"]
+        self.sel = sel = plugins.selection(m)
+        wall = sel["walls"]
+        self.boundary, self.consistent = wall.boundary, wall.consistent
+        self.continuity = sel["density"].name == "continuity"
+        self.corrected = sel["correction"].name == "CSPM"
+        self.default_integrator = "symplectic_verlet" if self.continuity else "symplectic_euler"
+        ctx = self.ctx = Ctx.create(dtype, dim, m["kernel"])
+        self.q = q = plugins.Quantities(m, case["physics"], dim, case["dp"], 0.0, 0.0, 0.0, {}, None,
+                                        boundary=self.boundary, conservative=not self.consistent,
+                                        corrected=self.corrected)
+        eos_p, q.eos_density, q.sound = sel["eos"].build(ctx, q)
+        s = _stores(ctx, eos_p, self.continuity, self.consistent)
+        mk = backend.make_pass
+
+        if self.continuity:
+            self.initialize_map = backend.make_map(s["initialize"])
+            self.density_pass = None
+        else:
+            fluid_term, wall_term = sel["density"].build(ctx, q)
+            self.density_pass = mk(dim, dtype, s["init_scalar"], fluid_term, s["store_density"], pair2=wall_term)
+        if self.boundary == "particles":
+            self.volume_pass = mk(dim, dtype, s["init_scalar"], make_akinci_volume(ctx), _store_psi(ctx))
+        self.boundary_pass = None
+        if self.consistent:
+            init_b, store_b = make_boundary_store(ctx)
+            self.boundary_pass = mk(dim, dtype, init_b, make_boundary_interpolation(ctx), store_b)
+        self.cspm_pass = None
+        if self.corrected:
+            init_l, store_l = make_cspm_store(ctx)
+            self.cspm_pass = mk(dim, dtype, init_l, make_cspm_matrix(ctx), store_l)
+
+        fluid, walls = [], []
+        for slot in ("density", "pressure", "diffusive", "viscous", "xsph"):
+            c = sel[slot]
+            if c.build is None or (slot == "density" and not self.continuity):
+                continue
+            t = c.build(ctx, q)
+            if isinstance(t, Correction):
+                continue
+            fluid += t.fluid
+            walls += t.wall
+        if self.consistent:
+            fluid.append(make_shepard(ctx))
+        # the heaviest pass. Its terms evaluated for every candidate, without a branch
+        # (backends/walk.py), measured against the branch in one process: 2D WCSPH-BI dam
+        # break 1.27 times faster at 2.5 k and 100 k; 2D hydrostatic (Fourtakas' pow per pair)
+        # 0.96; 3D (4.5 candidates per neighbour) 0.90; the light classic force pass 0.47.
+        # Hence for 2D boundary elements only.
+        self.interaction = mk(dim, dtype, s["init9"], compose(*fluid), s["finalize"],
+                              pair2=compose(*walls) if walls else None,
+                              branchless=dim == 2 and self.boundary == "elements")
+
+        # corrections after each step, in this order
+        self.corrections = []
+        for slot in ("collision", "xsph", "shifting"):
+            c = sel[slot]
+            if c.build is not None:
+                t = c.build(ctx, q)
+                if isinstance(t, Correction):
+                    self.corrections.append(t)
+        if self.corrected and self.continuity and m["cspm_density_interval"] > 0:
+            init_d, store_d = make_shepard_density_store(ctx)
+            term = make_shepard_density(ctx)
+            self.corrections.append(Correction(init_d, term, store_d, s["apply_density"],
+                                               wall=term if self.boundary == "particles" else None,
+                                               every=m["cspm_density_interval"]))
+        self.correction_passes = [
+            (c, mk(dim, dtype, c.init, c.fluid, c.store, pair2=c.wall), backend.make_map(c.apply))
+            for c in self.corrections]
+        self.wall_correction = None
+        if self.boundary == "elements" and (m["enableElasticBounce"] or m["enableShifting"]):
+            term = make_wall_corrections(ctx, m["enableElasticBounce"], m["elasticBounce"] == "epsilon",
+                                         m["enableShifting"])
+            self.wall_correction = mk(dim, dtype, s["init_wall_correction"], term, s["store_wall_correction"])
+        self._placeholders = {}
+
+    # ------------------------------------------------------------------ set-up
+    def fluid_fields(self):
+        """(name, kind, scratch): scratch when every evaluation writes the field before
+        reading it (sorting skips those)."""
+        f = [("dvdt", "vector", True), ("rho", "scalar", not self.continuity), ("p", "scalar", True),
+             ("pr", "scalar", True), ("vol", "scalar", True)]
+        if self.continuity:
+            f.append(("drhodt", "scalar", True))
+        if self.consistent:
+            f.append(("shepard", "scalar", True))
+        if self.corrected:
+            f.append(("L", (6,), True))
+        if self.corrections:
+            f.append(("corr", "vector", True))
+            f.append(("rho_corr", "scalar", True))
+        return f
+
+    def wall_fields(self):
+        if self.boundary == "particles":
+            return [("psi", "scalar"), ("vol", "scalar"), ("rho", "scalar")]
+        return [("p", "scalar"), ("rho", "scalar")]
+
+    def particle_mass(self, dp, h, rho0, kernel_w):
+        """``mass`` when given; else the mass that makes the summation density of the initial
+        lattice exactly rho0 (summation density), or rho0 dp^dim (the lattice cell's mass)."""
+        if self.m["mass"]:
+            return self.m["mass"]
+        if not self.continuity:
+            from ..geometry import lattice_density_sum
+
+            return rho0 / lattice_density_sum(kernel_w, self.dim, dp, h)
+        return rho0 * dp ** self.dim
+
+    def kinematic_viscosity(self, rho0):
+        return kinematic_viscosity(self.case)
+
+    def initial_density(self, x, tops, P, gravity):
+        """Continuity density: hydrostatic under each fluid block's top (``tops``),
+        rho = EOS^-1(p0 + rho0 |g| depth), so that a column starts in equilibrium (DualSPHysics
+        and TNL-SPH cases do the same). Summation density: rho0 (the first evaluation sums it)."""
+        if not self.continuity:
+            return np.full(x.shape[1], float(P.rho0))
+        g = abs(float(gravity[-1]))
+        dpres = float(P.rho0) * g * np.maximum(tops - x[-1], 0.0)
+        Pd = P._replace(**{f: float(v) for f, v in P._asdict().items()})  # in double precision
+        return np.asarray(self.q.eos_density(Pd.p0 + dpres, Pd), dtype=float)
+
+    def params(self, kernel, rho0, c0, h, gravity, dt, kernel_numpy):
+        q = self.q
+        q.kernel, q.c0, q.rho0, q.h, q.kernel_numpy = kernel, c0, rho0, h, kernel_numpy
+        return plugins.make_params(self.dtype, q, self.sel, gravity, dt)
+
+    def update(self, P, dt, gravity, vmax=0.0):
+        return plugins.update_params(P, self.dtype, self.q, self.sel, dt, gravity, vmax)
+
+    def initialize(self, fluid, walls, P, G, lattice_mass):
+        """Boundary particles' pseudo-masses Psi (then V = Psi/rho0, rho = rho0).
+        ``akinci``: rho0 / sum_l W_kl over wall neighbours, Akinci et al. (2012) eq. 5, made for
+        a single layer of wall particles; on the fluid-facing layer of a thick wall it counts
+        only half a neighbourhood and doubles Psi. ``lattice``: the same formula with the sum
+        over the full lattice the wall is sampled on, Psi = rho0 V0 = the fluid particle mass,
+        which makes a wall of full kernel depth act like fluid at rest (the dummy-particle
+        limit, Adami et al. 2012)."""
+        if not walls.n or self.boundary != "particles":
+            return
+        be = self.backend
+        if self.m["wall_volume"] == "akinci":
+            w = self.view(walls, WallView)
+            self.volume_pass(w, w, w, P, G)
+            psi = be.to_host(walls["psi"])
+        else:
+            psi = np.full(walls.n, lattice_mass)
+        rho0 = float(P.rho0)
+        walls["psi"] = be.to_device(psi.astype(self.dtype))
+        walls["vol"] = be.to_device((psi / rho0).astype(self.dtype))
+        walls["rho"] = be.to_device(np.full(walls.n, rho0, dtype=self.dtype))
+
+    def view(self, pset, cls):
+        """``cls`` over ``pset``, with a stand-in for each field the set lacks (never read)."""
+        a = pset.arrays
+        return cls(**{f: a[f] if f in a else self._placeholder(f) for f in cls._fields})
+
+    def _placeholder(self, name):
+        if name not in self._placeholders:
+            shape = (1,) * _PLACEHOLDER_NDIM[name]
+            self._placeholders[name] = self.backend.to_device(np.zeros(shape, dtype=self.dtype))
+        return self._placeholders[name]
+
+    # ------------------------------------------------------------------ per evaluation
+    def derivatives(self, fluid, walls, P, G):
+        """Drho/Dt (continuity) or rho (summation), and Dv/Dt of every fluid particle."""
+        f = self.view(fluid, FluidView)
+        w = self.view(walls, WallView)
+        if self.continuity:
+            self.initialize_map(f, P)
+        else:
+            self.density_pass(f, f, w, P, G)
+        if self.boundary_pass is not None and walls.n:
+            self.boundary_pass(w, f, f, P, G)
+        if self.cspm_pass is not None:
+            self.cspm_pass(f, f, f, P, G)
+        self.interaction(f, f, w, P, G)
+
+    def refresh(self, fluid, P):
+        """p and V from the current density (continuity density: the last evaluation may have
+        been at an integrator's intermediate stage; summation: those of the step's pass)."""
+        if self.continuity:
+            self.initialize_map(self.view(fluid, FluidView), P)
+
+    def correct(self, fluid, walls, P, G, step=1):
+        """The corrections after time step number ``step``: DPC, XSPH on the positions,
+        shifting, CSPM density re-initialisation (every N steps), then the elastic bounce and
+        NBVC-PST of boundary elements."""
+        due = [(c, run, apply) for c, run, apply in self.correction_passes if step % c.every == 0]
+        if due:
+            self.refresh(fluid, P)
+            w = self.view(walls, WallView)
+            for c, run, apply in due:
+                f = self.view(fluid, FluidView)
+                run(f, f, w, P, G)
+                apply(f, P)
+                self.refresh(fluid, P)
+        if self.wall_correction is not None and walls.n:
+            w = self.view(walls, WallView)
+            self.wall_correction(self.view(fluid, FluidView), w, w, P, G)
+
+
+def _store_psi(ctx):
+    @register_jitable
+    def store(i, I, P, acc):
+        I.psi[i] = P.rho0 / acc
+
+    return store

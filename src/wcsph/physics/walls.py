@@ -1,0 +1,55 @@
+"""Wall models, slot ``BCType``: boundary particles of Akinci et al. (2012) or the boundary
+elements of the WCSPH-BI spec (conservative or consistent). A wall model decides which wall
+terms the other slots' choices use (each choice builds its own wall part for both kinds) and
+owns the wall corrections (elastic bounce, NBVC-PST) of boundary elements."""
+from ..registry import NONNEG, POS, UNIT, Choice, Param, add, one_of
+
+#: parameters of the boundary elements and their corrections, under the spec's names
+ELEMENT_PARAMS = (
+    Param("boundaryElementSize", 0.0, "boundary element size S: a length in 2D, an area in 3D; 0: dp "
+          "(2D) or dp^2 (3D)", unit="m or m^2", check=NONNEG, spec=True),
+    Param("massBoundary", 0.0, "boundary element mass (read for the spec's parameter table; elements carry "
+          "no mass in these schemes)", unit="kg", check=NONNEG, spec=True),
+    Param("enableElasticBounce", True, "elastic bounce of particles approaching an element", kind="bool", spec=True),
+    Param("elasticBounce", "conservative", "'conservative' (EB-Conservative, e = 1) or 'epsilon' (EB-eps, "
+          "e = elasticFactor)", kind="str", check=one_of("conservative", "epsilon")),
+    Param("elasticFactor", 1.0, "e of the epsilon bounce", check=UNIT, spec=True),
+    Param("r_boxFactor", 1.5, "r_box = r_boxFactor dp, the reach of an element's corrections", check=POS, spec=True),
+    Param("minimalDistanceFactor", 0.5, "h_fac: the bounce keeps particles h_fac dp off the wall", check=NONNEG,
+          spec=True),
+    Param("enableShifting", True, "NBVC-PST: particles closer than their radius (m/rho)^(1/d)/2 are moved "
+          "back", kind="bool"),
+)
+
+
+def _element_values(q):
+    m = q.m
+    return {"r_box2": (m["r_boxFactor"] * q.dp) ** 2, "min_dist": m["minimalDistanceFactor"] * q.dp,
+            "elastic": m["elasticFactor"]}
+
+
+def _element_check(m):
+    if m["elasticFactor"] != 1.0 and m["elasticBounce"] != "epsilon":
+        return ("elasticFactor", f"{m['elasticFactor']:g} has no effect with elasticBounce = "
+                f"{m['elasticBounce']!r}; set elasticBounce = \"epsilon\" for the EB-eps bounce")
+    return None
+
+
+add("walls", Choice(
+    "AkinciBoundaryParticles", "Akinci et al. (2012) with pressure mirroring (Band et al. 2018)",
+    "wall particles, pseudo-mass Psi_k; the fluid's terms continued over them",
+    params=(Param("wall_layers", 0, "layers of wall particles; 0: the kernel support (lattice volume) or 1 "
+                  "(akinci volume)", kind="int", check=NONNEG),
+            Param("wall_volume", "lattice", "'lattice' (Psi = the fluid particle mass) or 'akinci' (Psi = rho0 "
+                  "/ sum_l W_kl, eq. 5)", kind="str", check=one_of("lattice", "akinci"))),
+    walls=("particles",), boundary="particles"))
+add("walls", Choice(
+    "BIConservative_numeric", "WCSPH-BI spec, conservative boundary integrals",
+    "boundary elements (x, n, S); no renormalization", params=ELEMENT_PARAMS,
+    p_fields=("r_box2", "min_dist", "elastic"), values=_element_values, check=_element_check,
+    walls=("elements",), boundary="elements"))
+add("walls", Choice(
+    "BIConsistent_numeric", "WCSPH-BI spec, consistent boundary integrals",
+    "boundary elements; Shepard factor gamma_i, wall pressure interpolated from the fluid",
+    params=ELEMENT_PARAMS, p_fields=("r_box2", "min_dist", "elastic"), values=_element_values,
+    check=_element_check, walls=("elements",), boundary="elements", consistent=True))
