@@ -25,7 +25,14 @@ SLOTS = {
                                                     ("model.enableShifting", True)])],
     },
     "dam_break_2d": {
-        "xsph": [("off", [("model.xsph", 0.0)]), ("0.05", [("model.xsph", 0.05)])],
+        "xsph": [(v, [("model.xsph", v)]) for v in ("None", "momentum", "position")],
+        "pressure": [(v, [("model.pressure", v)]) for v in ("Monaghan1992", "BISymmetric",
+                                                            "Monaghan1992ArtificialViscosity")],
+        "density": [("summation", []), ("continuity + Molteni", [("model.density", "continuity"),
+                                                                 ("model.DiffusiveTerm", "MolteniDiffusiveTerm")])],
+        "kernel_correction": [(v, [("model.kernel_correction", v)]) for v in ("None", "CSPM")],
+        "shifting": [(v, [("model.shifting", v)]) for v in ("None", "Lind", "DeltaPlus")],
+        "collision": [(v, [("model.collision", v)]) for v in ("None", "DPC")],
         "wall_xsph": [("off", [("model.wall_xsph", 0.0)]), ("0.05", [("model.wall_xsph", 0.05)])],
     },
 }

@@ -39,7 +39,7 @@ def _parser():
     r.add_argument("--dp", type=float, default=None, help="override the particle spacing dp")
     r.add_argument("--backend", choices=["cpu", "cuda"], default=None)
     r.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a case value by its dotted key, e.g. model.xsph=0.05")
+                   help="override a case value by its dotted key, e.g. model.xsph_epsilon=0.05")
     r.add_argument("--no-progress", action="store_true", help="plain log lines instead of a progress bar")
     rs = sub.add_parser("resume", help="continue a run from the checkpoint in its output directory",
                         description="Continue a run from DIR/checkpoint.npz (written at the end of a run, at "

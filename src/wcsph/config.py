@@ -2,7 +2,8 @@
 
 The schema below is the single source of truth for keys, types, defaults and limits. Every
 problem is reported as a ``CaseError`` naming the file and the dotted key, e.g.
-``dam.toml: model.xsph: expected a number, got 'high'``.
+``dam.toml: model.xsph_epsilon: expected a number, got 'high'``. The ``[model]`` table is
+built from the plug-in registries (``plugins``).
 """
 import copy
 import math
