@@ -50,3 +50,23 @@ def test_second_run_loads_every_loop_from_the_cache(name, cache_dir, tmp_path):
     assert not saved, f"{name}: recompiled in a warm process:\n" + "\n".join(saved)
     assert len(loaded) >= 3, f"{name}: expected the loops to come from the cache:\n{log[-2000:]}"
     assert summary["compile_time_s"] < WARM_LIMIT_S, summary
+
+
+def test_a_stale_cache_index_is_recompiled_not_a_traceback(tmp_path):
+    """An index written by an older wcsph names a class that is gone (a renamed view, a removed
+    module): it reads as empty, so the loop compiles again instead of failing."""
+    import pickle
+
+    import numba
+    from numba.core.caching import IndexDataCacheFile
+
+    import wcsph  # noqa: F401  (installs the guard)
+
+    index = tmp_path / "loop.nbi"
+    with open(index, "wb") as f:
+        pickle.dump(numba.__version__, f, protocol=-1)
+        f.write(b"cwcsph.models.bi\nWCSPHBI\n.")  # a pickle of a class from a module that no longer exists
+    cache_file = IndexDataCacheFile.__new__(IndexDataCacheFile)
+    cache_file._index_path = str(index)
+    cache_file._version = numba.__version__
+    assert cache_file._load_index() == {}

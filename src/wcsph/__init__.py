@@ -1,7 +1,8 @@
 """wcsph: weakly compressible SPH for free-surface flows, on CPU (Numba) and NVIDIA GPUs."""
-from . import threads
+from . import numba_cache, threads
 
 threads.configure()  # before any compiled loop starts Numba's threads
+numba_cache.install()  # an index left by an older wcsph is recompiled, not a traceback
 
 from .config import CaseError, load, validate
 from .solver import OutputError, RunInterrupted, Simulation, SimulationError

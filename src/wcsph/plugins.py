@@ -166,14 +166,14 @@ def make_params(dtype, q, sel, gravity, dt=1.0):
     return Params(**{f: dtype(x) for f, x in v.items()})
 
 
-def update_params(P, dtype, q, sel, dt, gravity, vmax):
-    """P for a step of size ``dt`` under body force ``gravity``, fluid speeds up to ``vmax``."""
-    g = list(gravity) + [0.0] * (3 - len(gravity))
-    v = {"dt": dt, "gx": g[0], "gy": g[1], "gz": g[2], "vmax": vmax}
-    for c in sel.values():
-        if c.step_values is not None:
-            v.update(c.step_values(q, dt))
-    return P._replace(**{f: dtype(x) for f, x in v.items()})
+def update_params(P, dtype, q, stepped, dt, gravity, vmax):
+    """P for a step of size ``dt`` under body force ``gravity``, fluid speeds up to ``vmax``;
+    ``stepped``: the selected choices with ``step_values``."""
+    gz = gravity[2] if len(gravity) == 3 else 0.0
+    P = P._replace(dt=dtype(dt), gx=dtype(gravity[0]), gy=dtype(gravity[1]), gz=dtype(gz), vmax=dtype(vmax))
+    for c in stepped:
+        P = P._replace(**{f: dtype(x) for f, x in c.step_values(q, dt).items()})
+    return P
 
 
 # ------------------------------------------------------------------------------ docs

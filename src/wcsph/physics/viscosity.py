@@ -14,23 +14,10 @@ from ..registry import NONNEG, Choice, Param, add
 from .interaction import Terms, add_force
 
 
-def _coef(wall):
-    if wall:
-        @register_jitable
-        def coef(P):
-            return P.wall_visc
-    else:
-        @register_jitable
-        def coef(P):
-            return P.visc
-    return coef
-
-
 def make_artificial_viscosity(ctx, wall=False):
     """Monaghan (1992) artificial viscosity, active between approaching particles:
     Dv_i/Dt += alpha h c0 sum_j m_j psi_ij / rho_bar_ij grad_i W_ij, rho_bar the mean density."""
     grad, dim, zero, two = ctx.grad, ctx.dim, ctx.zero, ctx.dtype(2)
-    coef = _coef(wall)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
@@ -40,7 +27,7 @@ def make_artificial_viscosity(ctx, wall=False):
         vx = min((I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz, zero)
         rho_i, rho_j = I.rho[i], J.rho[j]
         # one division per pair, not two
-        f = coef(P) * two * rho_i * rho_j * vx / ((rho_i + rho_j) * (r * r + P.eps_h2)) * grad(r, P) * J.vol[j]
+        f = (P.wall_visc if wall else P.visc) * two * rho_i * rho_j * vx / ((rho_i + rho_j) * (r * r + P.eps_h2)) * grad(r, P) * J.vol[j]
         return add_force(acc, f * dx, f * dy, f * dz)
 
     return term
@@ -51,13 +38,12 @@ def make_mgvt(ctx, wall=False):
     2 (n + 2) mu sum_j psi_ij grad_i W_ij V_j (Monaghan 2005, sec. 6.2); the force is along
     x_ij, so fluid pairs conserve angular momentum."""
     grad, dim, zero = ctx.grad, ctx.dim, ctx.zero
-    coef = _coef(wall)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         vz = (I.v[2, i] - J.v[2, j]) * dz if dim == 3 else zero
         vx = (I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz
-        f = coef(P) * vx / (r * r + P.eps_h2) * grad(r, P) * J.vol[j]
+        f = (P.wall_visc if wall else P.visc) * vx / (r * r + P.eps_h2) * grad(r, P) * J.vol[j]
         return add_force(acc, f * dx, f * dy, f * dz)
 
     return term
@@ -68,12 +54,11 @@ def make_mvt(ctx, wall=False):
     (x_ij . grad_i W_ij) / (r^2 + eps h^2). (The spec's table prints v_ij . x_ij grad W, the
     Monaghan-Gingold shape; Morris's operator is the one above.)"""
     grad, dim, zero = ctx.grad, ctx.dim, ctx.zero
-    coef = _coef(wall)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         r2 = r * r
-        f = coef(P) * r2 * grad(r, P) / (r2 + P.eps_h2) * J.vol[j]
+        f = (P.wall_visc if wall else P.visc) * r2 * grad(r, P) / (r2 + P.eps_h2) * J.vol[j]
         fz = f * (I.v[2, i] - J.v[2, j]) if dim == 3 else zero
         return add_force(acc, f * (I.v[0, i] - J.v[0, j]), f * (I.v[1, i] - J.v[1, j]), fz)
 

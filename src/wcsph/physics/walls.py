@@ -25,7 +25,7 @@ ELEMENT_PARAMS = (
 def _element_values(q):
     m = q.m
     return {"r_box2": (m["r_boxFactor"] * q.dp) ** 2, "min_dist": m["minimalDistanceFactor"] * q.dp,
-            "elastic": m["elasticFactor"]}
+            "back": max(m["minimalDistanceFactor"], 0.55) * q.dp, "elastic": m["elasticFactor"]}
 
 
 def _element_check(m):
@@ -46,10 +46,10 @@ add("walls", Choice(
 add("walls", Choice(
     "BIConservative_numeric", "WCSPH-BI spec, conservative boundary integrals",
     "boundary elements (x, n, S); no renormalization", params=ELEMENT_PARAMS,
-    p_fields=("r_box2", "min_dist", "elastic"), values=_element_values, check=_element_check,
+    p_fields=("r_box2", "min_dist", "back", "elastic"), values=_element_values, check=_element_check,
     walls=("elements",), boundary="elements"))
 add("walls", Choice(
     "BIConsistent_numeric", "WCSPH-BI spec, consistent boundary integrals",
     "boundary elements; Shepard factor gamma_i, wall pressure interpolated from the fluid",
-    params=ELEMENT_PARAMS, p_fields=("r_box2", "min_dist", "elastic"), values=_element_values,
+    params=ELEMENT_PARAMS, p_fields=("r_box2", "min_dist", "back", "elastic"), values=_element_values,
     check=_element_check, walls=("elements",), boundary="elements", consistent=True))

@@ -20,13 +20,15 @@ EPSILON = Param("xsph_epsilon", 0.1, "epsilon of XSPH", check=UNIT)
 def make_xsph(ctx, wall=False):
     """a_i += epsilon/dt sum_j V_j (v_j - v_i) W_ij (``P.xsph_dt`` = epsilon/dt), over fluid
     neighbours; with ``wall``, over boundary particles with V = Psi/rho0 and
-    ``P.wall_xsph_dt`` = wall_xsph/dt."""
+    ``P.wall_xsph_dt`` = wall_xsph/dt (SPlisHSPlasH's boundary viscosity for Akinci walls)."""
     kernel_w, dim, zero = ctx.w, ctx.dim, ctx.zero
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        c = P.wall_xsph_dt if wall else P.xsph_dt
-        f = c * J.vol[j] * kernel_w(r, P)
+        if wall:  # a compile-time choice; the classic wall view has Psi only
+            f = P.wall_xsph_dt * J.psi[j] * P.rho0_inv * kernel_w(r, P)
+        else:
+            f = P.xsph_dt * J.vol[j] * kernel_w(r, P)
         fz = f * (J.v[2, j] - I.v[2, i]) if dim == 3 else zero
         return add_accel(acc, f * (J.v[0, j] - I.v[0, i]), f * (J.v[1, j] - I.v[1, i]), fz)
 
