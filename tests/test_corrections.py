@@ -29,25 +29,27 @@ def _set(sim, name, values_by_id):
 
 
 # ------------------------------------------------------------------------------ CSPM
-@pytest.mark.parametrize("correction", ["CSPM", "None"])
-def test_cspm_gradient_and_divergence_of_linear_fields(correction):
+@pytest.mark.parametrize("correction,dim", [("CSPM", 2), ("None", 2), ("CSPM", 3)])
+def test_cspm_gradient_and_divergence_of_linear_fields(correction, dim):
     """On a jittered block with free surfaces all round (no walls), a linear pressure field
-    (through rho of the linearized EOS) and a linear velocity field: with CSPM, Dv/Dt =
-    -grad p / rho and Drho/Dt = -rho div v at every particle to round-off, surface ones
-    included; without it, the errors reach tens of per cent."""
-    case = _case({"name": "bi", "kernel_correction": correction, "DiffusiveTerm": "None"}, dp=0.02, size=0.4)
+    (through rho of the linearized EOS) and a linear velocity field: with CSPM (the difference
+    form of grad p), Dv/Dt = -grad p / rho and Drho/Dt = -rho div v at every particle to
+    round-off, surface ones included; without it, the errors reach tens of per cent."""
+    case = _case({"name": "bi", "BCType": "BIConsistent_numeric", "kernel_correction": correction,
+                  "cspm_form": "difference", "DiffusiveTerm": "None"}, dim=dim,
+                 dp=0.02 if dim == 2 else 0.025, size=0.4 if dim == 2 else 0.2)
     sim = wcsph.Simulation(case)
     rng = np.random.default_rng(1)
     ids = sim.host(sim.fluid, "id")[0]
-    x0 = np.empty((2, sim.fluid.n))
+    x0 = np.empty((dim, sim.fluid.n))
     x0[:, ids] = sim.host(sim.fluid, "x")[0]
     x0 += rng.uniform(-0.2, 0.2, x0.shape) * case["dp"]
     _set(sim, "x", x0)
-    grad_p = np.array([3000.0, -5000.0])  # Pa/m
+    grad_p = np.array([3000.0, -5000.0, 2000.0][:dim])  # Pa/m
     c2 = 20.0 ** 2
     rho = 1000.0 + (grad_p @ x0) / c2
     _set(sim, "rho", rho)
-    A = np.array([[0.3, -0.2], [0.5, 0.1]])  # v = A x: div v = trace A
+    A = np.array([[0.3, -0.2, 0.1], [0.5, 0.1, -0.3], [0.2, 0.4, 0.2]])[:dim, :dim]  # div v = trace A
     _set(sim, "v", A @ x0)
     sim.backend.sort(sim.fluid, sim.grid)
     sim.evaluate(sim.P)
@@ -178,38 +180,49 @@ def test_every_slot_choice_declares_a_reference_and_the_table_lists_it():
                 assert f"`{p.key}`" in table and p.doc
 
 
+def test_readme_slot_table_is_the_registries():
+    """The README's table is ``wcsph slots`` (regenerate it with that command)."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    a = text.index("<!-- slot-table")
+    table = text[text.index("\n", a) + 1:text.index("\n<!-- /slot-table -->")]
+    assert table == plugins.slot_table()
+
+
 def test_parameter_of_an_unselected_term_is_a_warning():
     case = _case({"name": "classic", "delta": 0.2})
     assert any("model.delta is set but has no effect" in w for w in case["_warnings"])
 
 
 # ------------------------------------------------------------------------------ references
-#: each new option switched on in each model (beside the model's defaults)
-OPTIONS = [{"pressure": "Monaghan1992ArtificialViscosity"}, {"xsph": "position"}, {"kernel_correction": "CSPM"},
-           {"collision": "DPC"}, {"shifting": "DeltaPlus"}, {"shifting": "Lind"}]
-CLASSIC_ONLY = [{"density": "continuity", "DiffusiveTerm": "MolteniDiffusiveTerm", "EOS": "ColeEquationOfState"}]
-
-
-def _ids(options):
-    return ["-".join(f"{k}={v}" for k, v in o.items()) for o in options]
+#: each new option switched on in each model (beside the model's defaults). XSPH on the
+#: positions replaces the classic preset's XSPH on the momentum, its only dissipation; the
+#: artificial viscosity alpha = 0.5 takes that role (0.1 to 0.3 run 11-15 % ahead of the data).
+OPTIONS = {
+    "classic": [{"pressure": "Monaghan1992ArtificialViscosity"},
+                {"xsph": "position", "ViscousTerm": "ArtificialViscosity", "alpha": 0.5},
+                {"kernel_correction": "CSPM"}, {"collision": "DPC"}, {"shifting": "DeltaPlus"}, {"shifting": "Lind"},
+                {"density": "continuity", "DiffusiveTerm": "MolteniDiffusiveTerm", "EOS": "ColeEquationOfState"}],
+    "bi": [{"pressure": "Monaghan1992ArtificialViscosity"}, {"xsph": "position"}, {"kernel_correction": "CSPM"},
+           {"collision": "DPC"}, {"shifting": "DeltaPlus"}, {"shifting": "Lind"}],
+}
+CASES = [(m, o) for m, opts in OPTIONS.items() for o in opts]
+IDS = [m + ":" + ",".join(f"{k}={v}" for k, v in o.items()) for m, o in CASES]
 
 
 @pytest.mark.validation
-@pytest.mark.parametrize("model", ["classic", "bi"])
-@pytest.mark.parametrize("option", OPTIONS + CLASSIC_ONLY, ids=_ids(OPTIONS + CLASSIC_ONLY))
+@pytest.mark.parametrize("model,option", CASES, ids=IDS)
 def test_dam_break_with_each_option(model, option, martin_moyce_errors, tmp_path):
     """The Martin & Moyce surge front (within 10 % for T <= 2.5) with the option on: classic,
     the shipped case (a = 1 m, 100 particles across); WCSPH-BI, the case of test_bi
     (a = 0.25 m, 50 across, consistent walls, artificial viscosity)."""
-    if model == "bi" and option in CLASSIC_ONLY:
-        pytest.skip("the WCSPH-BI preset has continuity density already")
     g = 9.81
     if model == "classic":
         a = 1.0
-        case = "dam_break_2d"
         over = [("time.end", 2.5 / np.sqrt(2 * g / a)), ("output.vtk", False), ("output.interval", 0.005)]
         over += [(f"model.{k}", v) for k, v in option.items()]
-        wcsph.run(case, output=tmp_path, progress=False, overrides=over)
+        wcsph.run("dam_break_2d", output=tmp_path, progress=False, overrides=over)
     else:
         a = 0.25
         case = {"dim": 2, "dp": a / 50, "fluid": [{"min": [0.0, 0.0], "max": [a, 2 * a]}],
@@ -224,14 +237,15 @@ def test_dam_break_with_each_option(model, option, martin_moyce_errors, tmp_path
 
 
 @pytest.mark.validation
-@pytest.mark.parametrize("model", ["classic", "bi"])
-@pytest.mark.parametrize("option", OPTIONS + CLASSIC_ONLY, ids=_ids(OPTIONS + CLASSIC_ONLY))
+@pytest.mark.parametrize("model,option", CASES, ids=IDS)
 def test_hydrostatic_tank_with_each_option(model, option):
-    """The shipped hydrostatic tank (H = 0.5 m) at t = 2 s with the option on: the interior
-    pressure profile extrapolated to the floor is rho0 g H within 2 % (3 % with DPC, whose
-    repulsion adds to the pressure force), fluid nearly at rest, no particle in a wall."""
-    if model == "bi" and option in CLASSIC_ONLY:
-        pytest.skip("the WCSPH-BI preset has continuity density already")
+    """The shipped hydrostatic tank (H = 0.5 m, 25 particles deep) at t = 2 s with the option
+    on, as test_physics asks of the classic model: the profile extrapolated to the floor is
+    rho0 g H within 2 % (5 % with CSPM: the corrected gradient puts p = 0 at the top row of
+    particles instead of half a spacing above it, dp/2 = 2 % of H lower; measured 3.1 and
+    3.4 %), the interior gradient rho0 g within 5 % (the classic model's summation density
+    makes it 3.8 % steeper with or without the options), the fluid nearly at rest, no particle
+    in a wall."""
     case = "hydrostatic_2d" if model == "classic" else "hydrostatic_2d_bi"
     sim = wcsph.Simulation(wcsph.load(case, [("time.end", 2.0), ("output.vtk", False)]
                                       + [(f"model.{k}", v) for k, v in option.items()]))
@@ -240,8 +254,30 @@ def test_hydrostatic_tank_with_each_option(model, option):
     H, rho0, g = 0.5, 1000.0, 9.81
     width = x[0].max() + x[0].min()
     sel = (np.abs(x[0] - width / 2) < 0.3 * width) & (x[1] > 0.1 * H) & (x[1] < 0.8 * H)
-    p0 = np.polyfit(x[1][sel], p[sel], 1)[1]
-    print(model, option, "floor pressure / rho0 g H", p0 / (rho0 * g * H))
-    assert p0 == pytest.approx(rho0 * g * H, rel=0.03 if "collision" in option else 0.02)
+    slope, p0 = np.polyfit(x[1][sel], p[sel], 1)
+    print(model, option, "floor pressure / rho0 g H", p0 / (rho0 * g * H), "gradient / rho0 g", -slope / (rho0 * g))
+    assert -slope == pytest.approx(rho0 * g, rel=0.05)
+    assert p0 == pytest.approx(rho0 * g * H, rel=0.05 if "kernel_correction" in option else 0.02)
     assert np.sqrt((v ** 2).sum(axis=0)).max() < 0.05 * np.sqrt(g * H)
     assert x[1].min() > 0 and sim.dropped == 0
+
+
+def test_every_new_option_at_once_in_3d(tmp_path):
+    """The 3D paths of the new terms (the 3x3 CSPM inverse, 3D shifting and DPC, XSPH on the
+    positions, Monaghan's Pi) together in a coarse WCSPH-BI dam break: it runs, keeps its
+    particles out of the walls and stays finite, and energy is only dissipated."""
+    case = {"dim": 3, "dp": 0.04, "fluid": [{"min": [0.0, 0.0, 0.0], "max": [0.2, 0.2, 0.4]}],
+            "tank": {"min": [0.0, 0.0, 0.0], "max": [0.6, 0.2, 0.6]}, "time": {"end": 0.15},
+            "model": {"name": "bi", "BCType": "BIConsistent_numeric", "kernel_correction": "CSPM", "collision": "DPC",
+                      "shifting": "DeltaPlus",
+                      "xsph": "position", "pressure": "Monaghan1992ArtificialViscosity"},
+            "output": {"progress": False, "vtk": False, "interval": 0.05}}
+    s = wcsph.run(case, output=tmp_path)
+    assert s["status"] == "completed" and s["dropped"] == 0
+    import csv
+
+    with open(tmp_path / "probes.csv") as f:
+        rows = list(csv.DictReader(f))
+    ek = [float(r["kinetic_energy"]) for r in rows]
+    ep = [float(r["potential_energy"]) for r in rows]
+    assert ek[-1] > 0 and ek[-1] - ek[0] <= (ep[0] - ep[-1]) * 1.01

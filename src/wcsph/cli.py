@@ -52,6 +52,7 @@ def _parser():
     pl = sub.add_parser("plot", help="PNG plots of a run's probes.csv (energies, surge front, sensors, gauges)")
     pl.add_argument("directory", help="the run's output directory")
     sub.add_parser("cases", help="list the shipped cases")
+    sub.add_parser("slots", help="list the plug-in slots of [model], their choices and parameters (Markdown)")
     sh = sub.add_parser("show", help="print a shipped case as TOML (to start a case of your own)")
     sh.add_argument("case", help="a shipped case name or a case file")
     return p
@@ -132,6 +133,11 @@ def _main(argv):
         for name in shipped_cases():
             desc = read_toml(resolve(name)).get("description", "")
             print(f"{name:20s} {desc}")
+        return 0
+    if args.command == "slots":
+        from .plugins import slot_table
+
+        print(slot_table())
         return 0
     if args.command == "plot":
         return _plot(args.directory)

@@ -146,6 +146,7 @@ class Quantities:
     boundary: str = "particles"
     conservative: bool = True
     corrected: bool = False
+    continuity: bool = True
     sound: object = None  # jitable c(rho, P) of the EOS (set by the model)
     eos_density: object = None  # jitable rho(p, P) of the EOS
 

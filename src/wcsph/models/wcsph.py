@@ -15,7 +15,8 @@ Per derivative evaluation (the spec's initialize / interact / finalize):
 4. interaction: one pass over fluid and wall neighbours, the terms of every slot composed
    into one pair function (``physics.interaction`` gives the accumulator);
 5. finalize (the pass's store): Drho/Dt = (-rho <div v> + delta h c0 D) / gamma,
-   Dv/Dt = f / (rho gamma) + a + g; gamma = 1 without the consistent wall model.
+   Dv/Dt = (f / rho + a) / gamma + g; gamma = 1 without the consistent wall model (and with
+   CSPM, whose correction includes it).
 
 After each time step the corrections run: DPC, XSPH on the positions, shifting, the CSPM
 density re-initialisation, and the elastic bounce and NBVC-PST of boundary elements.
@@ -27,7 +28,8 @@ from numba.extending import register_jitable
 
 from .. import plugins
 from ..physics import Correction, Ctx, compose
-from ..physics.correction import make_cspm_matrix, make_cspm_store, make_shepard_density, make_shepard_density_store
+from ..physics.correction import (make_cspm_boundary, make_cspm_matrix, make_cspm_store, make_shepard_density,
+                                 make_shepard_density_store)
 from ..physics.density import make_akinci_volume
 from ..physics.renormalization import make_boundary_interpolation, make_boundary_store, make_shepard
 from ..physics.viscosity import kinematic_viscosity
@@ -62,7 +64,7 @@ _PLACEHOLDER_NDIM = {"drhodt": 1, "shepard": 1, "L": 2, "corr": 2, "rho_corr": 1
                      "psi": 1, "vol": 1, "p": 1, "rho": 1, "pr": 1}
 
 
-def _stores(ctx, eos, continuity, consistent, needs_pr):
+def _stores(ctx, eos, continuity, consistent, needs_pr, corrected):
     zero, one, dim = ctx.zero, ctx.dtype(1), ctx.dim
 
     @register_jitable
@@ -92,17 +94,20 @@ def _stores(ctx, eos, continuity, consistent, needs_pr):
 
     @register_jitable
     def finalize(i, I, P, acc):
-        gam = acc[8] if consistent else one
+        # the Shepard factor divides the consistent scheme's sums; the CSPM-corrected sums are
+        # the derivatives themselves
+        gam = acc[8] if consistent and not corrected else one
         if consistent:
-            I.shepard[i] = gam
+            I.shepard[i] = acc[8]
         rho = I.rho[i]
         if continuity:
             I.drhodt[i] = (P.delta_hc0 * acc[1] - rho * acc[0]) / gam
         k = one / (rho * gam)
-        I.dvdt[0, i] = acc[2] * k + acc[5] + P.gx
-        I.dvdt[1, i] = acc[3] * k + acc[6] + P.gy
+        ka = one / gam
+        I.dvdt[0, i] = acc[2] * k + acc[5] * ka + P.gx
+        I.dvdt[1, i] = acc[3] * k + acc[6] * ka + P.gy
         if dim == 3:
-            I.dvdt[2, i] = acc[4] * k + acc[7] + P.gz
+            I.dvdt[2, i] = acc[4] * k + acc[7] * ka + P.gz
 
     @register_jitable
     def apply_density(i, I, P):
@@ -131,9 +136,10 @@ class WCSPH:
         ctx = self.ctx = Ctx.create(dtype, dim, m["kernel"])
         self.q = q = plugins.Quantities(m, case["physics"], dim, case["dp"], 0.0, 0.0, 0.0, {}, None,
                                         boundary=self.boundary, conservative=not self.consistent,
-                                        corrected=self.corrected)
+                                        corrected=self.corrected, continuity=self.continuity)
         eos_p, q.eos_density, q.sound = sel["eos"].build(ctx, q)
-        s = _stores(ctx, eos_p, self.continuity, self.consistent, sel["pressure"].name.startswith("Monaghan"))
+        s = _stores(ctx, eos_p, self.continuity, self.consistent, sel["pressure"].name.startswith("Monaghan"),
+                    self.corrected)
         mk = backend.make_pass
 
         if self.continuity:
@@ -151,7 +157,11 @@ class WCSPH:
         self.cspm_pass = None
         if self.corrected:
             init_l, store_l = make_cspm_store(ctx)
-            self.cspm_pass = mk(dim, dtype, init_l, make_cspm_matrix(ctx), store_l)
+            if self.boundary == "elements":
+                wall_m = make_cspm_boundary(ctx)
+            else:  # boundary particles count in the symmetric form only
+                wall_m = make_cspm_matrix(ctx) if m["cspm_form"] == "symmetric" else None
+            self.cspm_pass = mk(dim, dtype, init_l, make_cspm_matrix(ctx), store_l, pair2=wall_m)
 
         fluid, walls = [], []
         for slot in ("density", "pressure", "diffusive", "viscous", "xsph"):
@@ -200,7 +210,7 @@ class WCSPH:
         self.fluid_view = globals()[_fluid_view_name(
             (self.continuity, self.consistent, self.corrected, bool(self.corrections)))]
         psi_only = (not self.continuity and sel["pressure"].name == "Monaghan1992" and sel["viscous"].name == "None"
-                    and sel["shifting"].name == "None")
+                    and sel["shifting"].name == "None" and not self.corrected)
         self.wall_view = ElementView if self.boundary == "elements" else (
             ParticleWallView if psi_only else ParticleWallViewFull)
 
@@ -215,7 +225,7 @@ class WCSPH:
         if self.consistent:
             f.append(("shepard", "scalar", True))
         if self.corrected:
-            f.append(("L", (6,), True))
+            f.append(("L", (self.dim * self.dim,), True))
         if self.corrections:
             f.append(("corr", "vector", True))
             f.append(("rho_corr", "scalar", True))
@@ -304,7 +314,7 @@ class WCSPH:
         if self.boundary_pass is not None and walls.n:
             self.boundary_pass(w, f, f, P, G)
         if self.cspm_pass is not None:
-            self.cspm_pass(f, f, f, P, G)
+            self.cspm_pass(f, f, w, P, G)
         self.interaction(f, f, w, P, G)
 
     def refresh(self, fluid, P):

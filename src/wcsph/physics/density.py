@@ -65,16 +65,22 @@ def make_divergence(ctx, corrected=False):
     return term
 
 
-def make_boundary_divergence(ctx, conservative):
+def make_boundary_divergence(ctx, conservative, corrected=False):
     """<div v>_i^{dOmega} = c sum_b (v_b - v_i) . n_b W_ib S_b: c = 1 (asymmetric form of the
-    consistent schemes) or 2 (conservative form). n_b points out of the fluid."""
+    consistent schemes) or 2 (conservative form). n_b points out of the fluid. ``corrected``
+    (CSPM, consistent walls): with L_i n_b in place of n_b."""
     w, dim, zero = ctx.w, ctx.dim, ctx.zero
     c = ctx.dtype(2 if conservative else 1)
+    from .correction import corrected_gradient
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        dvz = (J.v[2, j] - I.v[2, i]) * J.n[2, j] if dim == 3 else zero
-        s = (J.v[0, j] - I.v[0, i]) * J.n[0, j] + (J.v[1, j] - I.v[1, i]) * J.n[1, j] + dvz
+        nx, ny = J.n[0, j], J.n[1, j]
+        nz = J.n[2, j] if dim == 3 else zero
+        if corrected:
+            nx, ny, nz = corrected_gradient(i, I, nx, ny, nz, dim)
+        dvz = (J.v[2, j] - I.v[2, i]) * nz if dim == 3 else zero
+        s = (J.v[0, j] - I.v[0, i]) * nx + (J.v[1, j] - I.v[1, i]) * ny + dvz
         return add_div(acc, c * s * w(r, P) * J.elementSize[j])
 
     return term
@@ -82,9 +88,9 @@ def make_boundary_divergence(ctx, conservative):
 
 def _continuity(ctx, q):
     if q.boundary == "elements":
-        wall = make_boundary_divergence(ctx, q.conservative)
-    else:  # boundary particles: the bulk sum continued over them (not corrected: L_i is fluid-only)
-        wall = make_divergence(ctx)
+        wall = make_boundary_divergence(ctx, q.conservative, q.corrected)
+    else:  # boundary particles: the bulk sum continued over them (corrected where L_i counts them)
+        wall = make_divergence(ctx, q.corrected and q.m["cspm_form"] == "symmetric")
     return Terms([make_divergence(ctx, q.corrected)], [wall])
 
 

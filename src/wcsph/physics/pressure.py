@@ -10,10 +10,10 @@
 Each form has its wall part for both wall models: the boundary integral over elements
 (symmetric form for consistent schemes, conservative form 2 p_i sum n W S otherwise), or the
 mirrored pressure over boundary particles (p_k = p_i, Band et al. 2018). With the CSPM kernel
-correction every form becomes the corrected difference form -sum_j (p_j - p_i) L_i grad_i W_ij
-V_j over fluid neighbours, which is the whole first-order consistent gradient by itself: the
-wall part is then left out (walls still act through the continuity equation and the wall
-corrections).
+correction every form becomes the corrected form -sum_j (p_j -/+ p_i) L_i grad_i W_ij V_j
+(``cspm_form``: the exact difference form or the renormalized symmetric one) over fluid
+neighbours, completed over boundary elements by -sum_b (p_b -/+ p_i) L_i n_b W S_b and, in the
+symmetric form, over boundary particles by the mirrored pressure (``physics.correction``).
 """
 from numba.extending import register_jitable
 
@@ -48,17 +48,40 @@ def make_mirrored_volume_pressure(ctx):
     return term
 
 
-def make_corrected_pressure(ctx):
-    """CSPM: f_i -= sum_j (p_j - p_i) L_i grad_i W_ij V_j (Chen et al. 1999), exact for a
-    linear pressure field."""
+def make_corrected_pressure(ctx, symmetric, mirrored=False):
+    """CSPM (Chen et al. 1999): f_i -= sum_j (p_j - p_i) L_i grad_i W_ij V_j, exact for a linear
+    pressure field (``symmetric`` False), or the renormalized symmetric form
+    f_i -= sum_j (p_i + p_j) L_i grad_i W_ij V_j (``symmetric``), whose p_i sum_j grad W V_j part
+    keeps the particles ordered as the uncorrected symmetric form does. ``mirrored``: over
+    boundary particles with p_k = p_i."""
     grad, dim = ctx.grad, ctx.dim
     from .correction import corrected_gradient
+    sign = ctx.dtype(1 if symmetric else -1)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         g = grad(r, P)
         gx, gy, gz = corrected_gradient(i, I, g * dx, g * dy, g * dz, dim)
-        f = -(J.p[j] - I.p[i]) * J.vol[j]
+        pj = I.p[i] if mirrored else J.p[j]
+        f = -(pj + sign * I.p[i]) * J.vol[j]
+        return add_force(acc, f * gx, f * gy, f * gz)
+
+    return term
+
+
+def make_corrected_boundary_pressure(ctx, symmetric, conservative):
+    """CSPM over boundary elements: f_i -= sum_b (p_b -/+ p_i) L_i n_b W_ib S_b, the difference
+    or the symmetric form (p_b = p_i for conservative walls, symmetric form only)."""
+    w, dim, zero = ctx.w, ctx.dim, ctx.zero
+    from .correction import corrected_gradient
+    sign = ctx.dtype(1 if symmetric else -1)
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        nz = J.n[2, j] if dim == 3 else zero
+        gx, gy, gz = corrected_gradient(i, I, J.n[0, j], J.n[1, j], nz, dim)
+        pb = I.p[i] if conservative else J.p[j]
+        f = -(pb + sign * I.p[i]) * w(r, P) * J.elementSize[j]
         return add_force(acc, f * gx, f * gy, f * gz)
 
     return term
@@ -135,14 +158,17 @@ def make_monaghan_pi(ctx, sound):
 
 def _wall_part(ctx, q, particles_term):
     if q.corrected:
-        return []
+        symmetric = q.m["cspm_form"] == "symmetric"
+        if q.boundary == "elements":  # the boundary integral completes the corrected gradient
+            return [make_corrected_boundary_pressure(ctx, symmetric, q.conservative)]
+        return [make_corrected_pressure(ctx, True, mirrored=True)] if symmetric else []
     if q.boundary == "elements":
         return [make_bi_boundary_pressure(ctx, q.conservative)]
     return [particles_term(ctx)]
 
 
 def _bulk(ctx, q, term):
-    return make_corrected_pressure(ctx) if q.corrected else term(ctx)
+    return make_corrected_pressure(ctx, q.m["cspm_form"] == "symmetric") if q.corrected else term(ctx)
 
 
 def _build_bi(ctx, q):

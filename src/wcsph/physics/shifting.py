@@ -7,34 +7,44 @@ the concentration-gradient (Fickian) shift of Lind, Xu, Stansby & Rogers (2012) 
 anti-clumping term of Monaghan (2000) that Lind and Sun et al. use, where
 
 * ``Lind``: D_i = A h |v_i| dt (Lind et al. 2012, A = ``shifting_A``, 1 to 6 in the paper);
-* ``DeltaPlus``: D = CFL Ma (2h)^2 = 4 h U dt with U the largest fluid speed (Sun, Colagrossi,
-  Marrone & Zhang 2017, delta+-SPH, with Ma = U/c0 and CFL = c0 dt/h).
+* ``DeltaPlus``: D = CFL Ma (2h)^2 = 4 h U dt (Sun, Colagrossi, Marrone & Zhang 2017,
+  delta+-SPH, with Ma = U/c0 and CFL = c0 dt/h), U the largest fluid speed of the step.
 
-**Free surface** (Lind et al. 2012): a particle whose position divergence
+**Free surface** (after Lind et al. 2012): a particle whose position divergence
 div r_i = -sum_j x_ij . grad_i W_ij V_j (= dim in the bulk) is below
-``shifting_surface_threshold`` (default dim - 0.5) is shifted only along the surface: the
-component along n_i = -sum_j grad_i W_ij V_j / |...| (out of the fluid) is removed. Boundary
-particles count as neighbours (so walls do not pull fluid in); next to boundary elements the
-missing neighbours make a particle look like a surface one, so it slides along the wall.
-A shift is capped at ``shifting_max`` dp. Fields are not corrected for the shift (delta+-SPH
-neglects that term too in weakly compressible flow).
+``shifting_surface_threshold`` (default dim - 0.25: the surface row and the one below it)
+is not shifted out of the fluid: the component of the shift along
+n_i = -sum_j grad_i W_ij V_j / |...| (out of the fluid) is removed where it is positive.
+(Removing only the surface row's normal shift, Lind's rule, let the row below move up into
+it: a WCSPH-BI hydrostatic column with delta+ shifting stood 4 % too high in floor pressure.)
+
+**Walls** complete every sum: boundary particles as neighbours, boundary elements as the
+boundary integral (``make_shift_boundary``), so a wall neither pulls fluid towards it nor
+reads as a free surface. Without that completion the particles along the side walls of a
+WCSPH-BI hydrostatic tank were shifted along them and drove a circulation that grew to
+0.29 m/s in 2 s; with it the tank stays at rest (0.02 m/s, 1 % of sqrt(g H)).
+
+A shift is capped at ``shifting_max`` dp. A shifted particle takes the density of its new
+place, rho + dr . grad rho (continuity density; Lind et al. 2012 correct the fields so).
+Velocities are not corrected (delta+-SPH neglects that term too).
 """
 import math
 
 from numba.extending import register_jitable
 
 from ..registry import NONNEG, POS, Choice, Param, add
-from . import Correction, make_apply
+from . import Correction
 
 R_TENSILE, N_TENSILE = 0.2, 4
 
 
-def make_shift_term(ctx):
-    """Accumulator (gx, gy, gz, nx, ny, nz, div r): the weighted gradient, the plain one (for
-    the normal) and the position divergence."""
+def make_shift_term(ctx, fluid=True):
+    """Accumulator (gx, gy, gz, nx, ny, nz, div r, rx, ry, rz): the weighted gradient, the plain
+    one (for the normal), the position divergence and, over fluid neighbours, the density
+    gradient sum_j (rho_j - rho_i) grad_i W_ij V_j (for the shifted particle's density)."""
     w, grad = ctx.w, ctx.grad
     rt = ctx.dtype(R_TENSILE)
-    one = ctx.dtype(1)
+    one, zero = ctx.dtype(1), ctx.zero
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
@@ -42,8 +52,27 @@ def make_shift_term(ctx):
         q = w(r, P) * P.shift_w_dp_inv
         q2 = q * q
         t = (one + rt * q2 * q2) * g
+        d = (J.rho[j] - I.rho[i]) * g if fluid else zero
         return (acc[0] + t * dx, acc[1] + t * dy, acc[2] + t * dz, acc[3] + g * dx, acc[4] + g * dy,
-                acc[5] + g * dz, acc[6] - g * r * r)
+                acc[5] + g * dz, acc[6] - g * r * r, acc[7] + d * dx, acc[8] + d * dy, acc[9] + d * dz)
+
+    return term
+
+
+def make_shift_boundary(ctx):
+    """Boundary elements complete the sums as a boundary integral (the WCSPH-BI identity
+    sum_j grad_i W_ij V_j + sum_b n_b W_ib S_b = 0 for a full support): n_b W S_b in both
+    gradients and (x_b - x_i) . n_b W S_b in div r, so that a wall neither pulls particles in
+    nor looks like a free surface."""
+    w, dim, zero = ctx.w, ctx.dim, ctx.zero
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        ws = w(r, P) * J.elementSize[j]
+        nx, ny = J.n[0, j] * ws, J.n[1, j] * ws
+        nz = J.n[2, j] * ws if dim == 3 else zero
+        return (acc[0] + nx, acc[1] + ny, acc[2] + nz, acc[3] + nx, acc[4] + ny, acc[5] + nz,
+                acc[6] - (dx * nx + dy * ny + dz * nz), acc[7], acc[8], acc[9])
 
     return term
 
@@ -54,7 +83,7 @@ def make_shift_store(ctx, per_particle):
 
     @register_jitable
     def init(i, I, P):
-        return (zero, zero, zero, zero, zero, zero, zero)
+        return (zero, zero, zero, zero, zero, zero, zero, zero, zero, zero)
 
     @register_jitable
     def store(i, I, P, acc):
@@ -66,38 +95,54 @@ def make_shift_store(ctx, per_particle):
         sx, sy, sz = -d * acc[0], -d * acc[1], -d * acc[2]
         if dim == 2:
             sz = zero
-        if acc[6] < P.shift_surface:  # free surface: only along it
+        if acc[6] < P.shift_surface:  # near the free surface: never out of the fluid
             nx, ny, nz = -acc[3], -acc[4], -acc[5] if dim == 3 else zero
             nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-            k = (sx * nx + sy * ny + sz * nz) / max(nn * nn, tiny)
+            k = max((sx * nx + sy * ny + sz * nz) / max(nn * nn, tiny), zero)
             sx, sy, sz = sx - k * nx, sy - k * ny, sz - k * nz
         s = math.sqrt(sx * sx + sy * sy + sz * sz)
         c = min(one, P.shift_max / max(s, tiny))
-        I.corr[0, i] = c * sx
-        I.corr[1, i] = c * sy
+        sx, sy, sz = c * sx, c * sy, c * sz
+        I.corr[0, i] = sx
+        I.corr[1, i] = sy
         if dim == 3:
-            I.corr[2, i] = c * sz
+            I.corr[2, i] = sz
+        # the density carried to the new position: rho + dr . grad rho (Lind et al. 2012)
+        I.rho_corr[i] = I.rho[i] + sx * acc[7] + sy * acc[8] + (sz * acc[9] if dim == 3 else zero)
 
     return init, store
+
+
+def make_shift_apply(ctx, continuity):
+    """x += dr; with continuity density, rho += dr . grad rho."""
+    dim = ctx.dim
+
+    @register_jitable
+    def apply(i, I, P):
+        for d in range(dim):
+            I.x[d, i] += I.corr[d, i]
+        if continuity:
+            I.rho[i] = I.rho_corr[i]
+
+    return apply
 
 
 def _build(per_particle):
     def build(ctx, q):
         init, store = make_shift_store(ctx, per_particle)
-        term = make_shift_term(ctx)
-        return Correction(init, term, store, make_apply(ctx, "x", False),
-                          wall=term if q.boundary == "particles" else None)
+        wall = make_shift_term(ctx, fluid=False) if q.boundary == "particles" else make_shift_boundary(ctx)
+        return Correction(init, make_shift_term(ctx), store, make_shift_apply(ctx, q.continuity), wall=wall)
     return build
 
 
 def _values(q):
-    thr = q.m["shifting_surface_threshold"] or q.dim - 0.5
+    thr = q.m["shifting_surface_threshold"] or q.dim - 0.25
     return {"shift_w_dp_inv": 1.0 / float(q.kernel_numpy(q.dp)), "shift_surface": thr,
             "shift_max": q.m["shifting_max"] * q.dp}
 
 
-SURFACE = Param("shifting_surface_threshold", 0.0, "div r below which a particle is on the free surface; "
-                "0: dim - 0.5", check=NONNEG)
+SURFACE = Param("shifting_surface_threshold", 0.0, "div r below which a particle is near the free surface "
+                "(not shifted outwards); 0: dim - 0.25", check=NONNEG)
 MAX = Param("shifting_max", 0.2, "largest shift per step, in dp", check=POS)
 FIELDS = ("shift_d", "shift_w_dp_inv", "shift_surface", "shift_max")
 
@@ -108,6 +153,7 @@ add("shifting", Choice(
     values=_values, step_values=lambda q, dt: {"shift_d": q.m["shifting_A"] * q.h * dt}, build=_build(True)))
 add("shifting", Choice(
     "DeltaPlus", "Sun, Colagrossi, Marrone & Zhang (2017), delta+-SPH",
-    "dr_i = -CFL Ma (2h)^2 sum_j (1 + R (W/W(dp))^4) grad W_ij V_j", params=(SURFACE, MAX), p_fields=FIELDS,
-    values=_values, step_values=lambda q, dt: {"shift_d": 4.0 * q.h * dt}, build=_build(False)))
+    "dr_i = -CFL Ma (2h)^2 sum_j (1 + R (W/W(dp))^4) grad W_ij V_j",
+    params=(SURFACE, MAX), p_fields=FIELDS, values=_values,
+    step_values=lambda q, dt: {"shift_d": 4.0 * q.h * dt}, build=_build(False)))
 

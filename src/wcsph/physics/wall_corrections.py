@@ -14,7 +14,6 @@ points out of the fluid).
 """
 import math
 
-import numpy as np
 from numba.extending import register_jitable
 
 
@@ -59,13 +58,13 @@ def make_wall_corrections(ctx, bounce, epsilon_bounce, shift):
 def make_init(ctx):
     """The accumulator's start: i's velocity, no shift, and its radius
     R_i = (m_i/rho_i)^(1/d) / 2."""
-    dim, zero, half = ctx.dim, ctx.zero, ctx.dtype(0.5)
+    dim, zero, half, third = ctx.dim, ctx.zero, ctx.dtype(0.5), ctx.dtype(1.0 / 3.0)
 
     @register_jitable
     def init(i, I, P):
         vol = I.m[i] / I.rho[i]
         if dim == 3:
-            return (I.v[0, i], I.v[1, i], I.v[2, i], zero, zero, zero, half * np.cbrt(vol))
+            return (I.v[0, i], I.v[1, i], I.v[2, i], zero, zero, zero, half * vol ** third)
         return (I.v[0, i], I.v[1, i], zero, zero, zero, zero, half * math.sqrt(vol))
 
     return init
