@@ -170,11 +170,12 @@ def make_params(dtype, q, sel, gravity, dt=1.0):
 def update_params(P, dtype, q, stepped, dt, gravity, vmax):
     """P for a step of size ``dt`` under body force ``gravity``, fluid speeds up to ``vmax``;
     ``stepped``: the selected choices with ``step_values``."""
-    gz = gravity[2] if len(gravity) == 3 else 0.0
-    P = P._replace(dt=dtype(dt), gx=dtype(gravity[0]), gy=dtype(gravity[1]), gz=dtype(gz), vmax=dtype(vmax))
+    v = {"dt": dtype(dt), "gx": dtype(gravity[0]), "gy": dtype(gravity[1]),
+         "gz": dtype(gravity[2] if len(gravity) == 3 else 0.0), "vmax": dtype(vmax)}
     for c in stepped:
-        P = P._replace(**{f: dtype(x) for f, x in c.step_values(q, dt).items()})
-    return P
+        for f, x in c.step_values(q, dt).items():
+            v[f] = dtype(x)
+    return P._replace(**v)
 
 
 # ------------------------------------------------------------------------------ docs

@@ -294,7 +294,8 @@ class WCSPH:
     def view(self, pset, cls):
         """``cls`` over ``pset``, with a stand-in for each field the set lacks (never read)."""
         a = pset.arrays
-        return cls(**{f: a[f] if f in a else self._placeholder(f) for f in cls._fields})
+        ph = self._placeholders
+        return cls._make([a[f] if f in a else (ph.get(f) or self._placeholder(f)) for f in cls._fields])
 
     def _placeholder(self, name):
         if name not in self._placeholders:
@@ -327,7 +328,7 @@ class WCSPH:
         """The corrections after time step number ``step``: DPC, XSPH on the positions,
         shifting, CSPM density re-initialisation (every N steps), then the elastic bounce and
         NBVC-PST of boundary elements."""
-        due = [(c, run, apply) for c, run, apply in self.correction_passes if step % c.every == 0]
+        due = self.correction_passes and [t for t in self.correction_passes if step % t[0].every == 0]
         if due:
             self.refresh(fluid, P)
             w = self.view(walls, self.wall_view)
