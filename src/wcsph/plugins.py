@@ -21,8 +21,8 @@ BASE_PARAMS = (
 )
 
 #: P fields every model has (kernel, reference state, body force, step)
-BASE_FIELDS = ("rc2", "h_inv", "w_norm", "g_norm", "rho0", "rho0_inv", "c2", "p0", "gx", "gy", "gz", "dt", "eps_h2",
-               "vmax")
+BASE_FIELDS = ("rc2", "h_inv", "w_norm", "g_norm", "rho0", "rho0_inv", "c0", "c2", "p0", "gx", "gy", "gz", "dt",
+               "eps_h2", "vmax")
 
 
 def _choice_fields():
@@ -157,7 +157,7 @@ def make_params(dtype, q, sel, gravity, dt=1.0):
     k = q.kernel
     v = dict.fromkeys(Params._fields, 0.0)
     v.update(rc2=k["rc"] ** 2, h_inv=k["h_inv"], w_norm=k["w_norm"], g_norm=k["g_norm"], rho0=q.rho0,
-             rho0_inv=1.0 / q.rho0, c2=q.c0 ** 2, p0=q.ph["p0"], gx=g[0], gy=g[1], gz=g[2], dt=dt,
+             rho0_inv=1.0 / q.rho0, c0=q.c0, c2=q.c0 ** 2, p0=q.ph["p0"], gx=g[0], gy=g[1], gz=g[2], dt=dt,
              eps_h2=q.m["eps"] * q.h * q.h, vmax=0.0)
     for c in sel.values():
         if c.values is not None:

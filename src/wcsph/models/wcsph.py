@@ -43,7 +43,8 @@ from ..physics.wall_corrections import make_wall_corrections
 # fields, each created at import under the name it is bound to (Numba's cache finds the
 # types of its compiled loops by name).
 _FLUID = "x v dvdt rho p pr vol m"
-_OPTIONAL = (("drhodt", "continuity"), ("shepard", "consistent"), ("L", "corrected"), ("corr rho_corr", "corrections"))
+_OPTIONAL = (("drhodt", "continuity"), ("shepard", "consistent"), ("L", "corrected"), ("corr rho_corr", "corrections"),
+             ("c", "sound"))
 
 
 def _fluid_view_name(flags):
@@ -64,13 +65,16 @@ _PLACEHOLDER_NDIM = {"drhodt": 1, "shepard": 1, "L": 2, "corr": 2, "rho_corr": 1
                      "psi": 1, "vol": 1, "p": 1, "rho": 1, "pr": 1}
 
 
-def _stores(ctx, eos, continuity, consistent, needs_pr, corrected):
+def _stores(ctx, eos, continuity, consistent, needs_pr, corrected, sound):
     zero, one, dim = ctx.zero, ctx.dtype(1), ctx.dim
+    needs_c = sound is not None
 
     @register_jitable
     def state(i, I, P, rho):
         p = eos(rho, P)
         I.p[i] = p
+        if needs_c:  # the sound speed, for Monaghan's Pi (once per particle, not per pair)
+            I.c[i] = sound(rho, P)
         if needs_pr:  # p/rho^2, for the m_j (p_i/rho_i^2 + p_j/rho_j^2) forms only
             I.pr[i] = p / (rho * rho)
         I.vol[i] = I.m[i] / rho
@@ -138,8 +142,9 @@ class WCSPH:
                                         boundary=self.boundary, conservative=not self.consistent,
                                         corrected=self.corrected, continuity=self.continuity)
         eos_p, q.eos_density, q.sound = sel["eos"].build(ctx, q)
+        self.needs_c = sel["pressure"].name == "Monaghan1992ArtificialViscosity"
         s = _stores(ctx, eos_p, self.continuity, self.consistent, sel["pressure"].name.startswith("Monaghan"),
-                    self.corrected)
+                    self.corrected, q.sound if self.needs_c else None)
         mk = backend.make_pass
 
         if self.continuity:
@@ -208,7 +213,7 @@ class WCSPH:
             self.wall_correction = mk(dim, dtype, make_wall_init(ctx), term, make_wall_store(ctx))
         self._placeholders = {}
         self.fluid_view = globals()[_fluid_view_name(
-            (self.continuity, self.consistent, self.corrected, bool(self.corrections)))]
+            (self.continuity, self.consistent, self.corrected, bool(self.corrections), self.needs_c))]
         psi_only = (not self.continuity and sel["pressure"].name == "Monaghan1992" and sel["viscous"].name == "None"
                     and sel["shifting"].name == "None" and not self.corrected)
         self.wall_view = ElementView if self.boundary == "elements" else (
@@ -226,6 +231,8 @@ class WCSPH:
             f.append(("shepard", "scalar", True))
         if self.corrected:
             f.append(("L", (self.dim * self.dim,), True))
+        if self.needs_c:
+            f.append(("c", "scalar", True))
         if self.corrections:
             f.append(("corr", "vector", True))
             f.append(("rho_corr", "scalar", True))
