@@ -144,7 +144,7 @@ def _nn_spread(x):
     return nn.std() / nn.mean(), nn.min()
 
 
-@pytest.mark.parametrize("shifting", ["None", "Lind", "DeltaPlus"])
+@pytest.mark.parametrize("shifting", ["None", pytest.param("Lind", marks=pytest.mark.validation), "DeltaPlus"])
 def test_shifting_keeps_a_box_vortex_free_of_clumps(shifting):
     """A vortex u = U sin(pi x/L) cos(pi y/L), v = -U cos(pi x/L) sin(pi y/L) in a closed box
     (classic model, Akinci walls, no gravity), 0.4 s: particles drift into lines and clumps
@@ -262,6 +262,7 @@ def test_hydrostatic_tank_with_each_option(model, option):
     assert x[1].min() > 0 and sim.dropped == 0
 
 
+@pytest.mark.validation  # 52 s with a cold compile cache: kept out of the default suite's 10 minutes
 def test_every_new_option_at_once_in_3d(tmp_path):
     """The 3D paths of the new terms (the 3x3 CSPM inverse, 3D shifting and DPC, XSPH on the
     positions, Monaghan's Pi) together in a coarse WCSPH-BI dam break: it runs, keeps its
