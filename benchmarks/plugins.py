@@ -43,12 +43,15 @@ def main():
     ap.add_argument("--size", type=int, default=25_000)
     ap.add_argument("--seconds", type=float, default=3.0, help="stepping per choice, all rounds")
     ap.add_argument("--rounds", type=int, default=6)
+    ap.add_argument("--slots", nargs="+", help="only these slots (e.g. shifting collision)")
     args = ap.parse_args()
     print(host())
     print("| case | slot | choice | ms/step | M particle-steps/s | time / cheapest of the slot |")
     print("|---|---|---|---:|---:|---:|")
     for case, slots in SLOTS.items():
         for slot, choices in slots.items():
+            if args.slots and slot not in args.slots:
+                continue
             # every choice of the slot set up side by side and timed in turns, the median of
             # the rounds kept: a shared host's load drifts by 20 % within a minute
             sims = [(label, setup(case, args.size, overrides)) for label, overrides in choices]

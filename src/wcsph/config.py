@@ -23,7 +23,6 @@ class CaseError(ValueError):
 
 # ---------------------------------------------------------------------------------- schema
 # leaf: (kind, default, check) where kind is a type tag and check a (predicate, message)
-_one_of = one_of
 
 
 #: a case name becomes the directory runs/NAME: one path component, no way out of runs/
@@ -36,7 +35,7 @@ UNIT_OPEN = (lambda v: 0 <= v < 1, "must lie in [0, 1)")
 POLYGON = {"points": ("points", REQUIRED, None), "closed": ("bool", False, None)}
 #: pressure sensor at ``position``; water-level gauge along the vertical line from
 #: ``position`` up by ``length`` (0: to the top of the domain)
-PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, _one_of("pressure", "level")),
+PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, one_of("pressure", "level")),
          "position": ("vec", REQUIRED, None), "length": ("float", 0.0, NONNEG)}
 
 #: the runtime parameters of the WCSPH-BI spec, accepted flat in a ``[parameters]`` table
@@ -55,10 +54,10 @@ SPEC_PARAMETERS = dict({
 SCHEMA = {
     "name": ("str", "case", SAFE_NAME),
     "description": ("str", "", None),
-    "dim": ("int", REQUIRED, _one_of(2, 3)),
+    "dim": ("int", REQUIRED, one_of(2, 3)),
     "dp": ("float", REQUIRED, POS),
-    "precision": ("str", "float32", _one_of("float32", "float64")),
-    "backend": ("str", "cpu", _one_of("cpu", "cuda")),
+    "precision": ("str", "float32", one_of("float32", "float64")),
+    "backend": ("str", "cpu", one_of("cpu", "cuda")),
     "domain": ({"min": ("vec", None, None), "max": ("vec", None, None)}, None, None),
     "fluid": ([FLUID_BLOCK], REQUIRED, None),
     "tank": (dict(BLOCK, open_top=("bool", True, None)), None, None),
@@ -76,7 +75,7 @@ SCHEMA = {
     "model": (plugins.model_schema(), {}, None),
     "time": ({
         "end": ("float", REQUIRED, POS),
-        "integrator": ("str", "", _one_of("", "symplectic_euler", "verlet", "symplectic_verlet", "midpoint", "rk4",
+        "integrator": ("str", "", one_of("", "symplectic_euler", "verlet", "symplectic_verlet", "midpoint", "rk4",
                                           "rk45", "MidpointScheme", "VerletScheme", "SymplecticVerletScheme",
                                           "RK45")),
         "verlet_euler_interval": ("int", 40, NONNEG),

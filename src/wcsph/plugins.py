@@ -42,19 +42,18 @@ Params = namedtuple("Params", BASE_FIELDS + _choice_fields())
 
 # ------------------------------------------------------------------------------ schema
 def params():
-    """Every (Param, [owners]) once: owners are 'slot' or 'slot=choice' strings."""
-    out = {}
-    for p in BASE_PARAMS:
-        out[p.dotted] = (p, ["model"])
-    for name, s in SLOTS.items():
+    """{dotted key: (Param, [the choices that own it])}; base and slot parameters have no
+    owning choice (an empty list)."""
+    out = {p.dotted: (p, []) for p in BASE_PARAMS}
+    for s in SLOTS.values():
         for p in s.params:
-            out.setdefault(p.dotted, (p, []))[1].append(name)
+            out.setdefault(p.dotted, (p, []))
         for c in s.choices.values():
             for p in c.params:
                 prev = out.setdefault(p.dotted, (p, []))
                 if prev[0] != p:
                     raise ValueError(f"{p.dotted} declared twice with different settings")
-                prev[1].append(f"{name}={c.name}")
+                prev[1].append(c)
     return out
 
 
@@ -119,10 +118,8 @@ def problems(model, given):
     for dotted, (p, owners) in params().items():
         if p.table != "model" or p.key not in given or p.key in used:
             continue
-        wrong_walls = [o for o in owners if "=" in o and wall.boundary not in
-                       (p.walls or SLOTS[o.split("=")[0]].choices[o.split("=")[1]].walls)]
-        where = " or ".join(f"{SLOTS[o.split('=')[0]].dotted} = {o.split('=')[1]!r}" for o in owners if "=" in o)
-        if wrong_walls and len(wrong_walls) == len(owners):
+        where = " or ".join(f"{SLOTS[c.slot].dotted} = {c.name!r}" for c in owners)
+        if all(wall.boundary not in (p.walls or c.walls) for c in owners):
             errors.append((dotted, f"applies to {where}, not to model.BCType = {wall.name!r}"))
         else:
             warnings.append(f"{dotted} is set but has no effect: it belongs to {where}")

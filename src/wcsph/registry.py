@@ -128,8 +128,3 @@ slot("shifting", "shifting", "Particle shifting", "shifting of particles in the 
      {"classic": "None", "bi": "None"})
 slot("collision", "collision", "Collision correction", "velocity correction of close pairs",
      {"classic": "None", "bi": "None"})
-
-
-def none_choice(slot_name, doc="off"):
-    """The ``"None"`` choice of an optional slot."""
-    return add(slot_name, Choice("None", "-", doc))

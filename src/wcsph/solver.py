@@ -185,7 +185,7 @@ class Simulation:
         dt = self.cfl * self.h / (self.c0 + self.vmax)
         if self.amax > 0:
             dt = min(dt, tc["force_cfl"] * math.sqrt(self.h / self.amax))
-        nu = self.model.kinematic_viscosity(self.rho0)
+        nu = self.model.kinematic_viscosity()
         if nu > 0:
             dt = min(dt, 0.125 * self.h * self.h / nu)
         return dt

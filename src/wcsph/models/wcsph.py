@@ -107,7 +107,7 @@ def _stores(ctx, eos, continuity, consistent, needs_pr, corrected, sound):
         if continuity:
             I.drhodt[i] = (P.delta_hc0 * acc[1] - rho * acc[0]) / gam
         k = one / (rho * gam)
-        ka = one / gam
+        ka = k * rho
         I.dvdt[0, i] = acc[2] * k + acc[5] * ka + P.gx
         I.dvdt[1, i] = acc[3] * k + acc[6] * ka + P.gy
         if dim == 3:
@@ -254,7 +254,7 @@ class WCSPH:
             return rho0 / lattice_density_sum(kernel_w, self.dim, dp, h)
         return rho0 * dp ** self.dim
 
-    def kinematic_viscosity(self, rho0):
+    def kinematic_viscosity(self):
         return kinematic_viscosity(self.case)
 
     def initial_density(self, x, tops, P, gravity):
@@ -337,13 +337,12 @@ class WCSPH:
         NBVC-PST of boundary elements."""
         due = self.correction_passes and [t for t in self.correction_passes if step % t[0].every == 0]
         if due:
-            self.refresh(fluid, P)
             w = self.view(walls, self.wall_view)
             for c, run, apply in due:
+                self.refresh(fluid, P)  # p and V of the state the correction starts from
                 f = self.view(fluid, self.fluid_view)
                 run(f, f, w, P, G)
                 apply(f, P)
-                self.refresh(fluid, P)
         if self.wall_correction is not None and walls.n:
             w = self.view(walls, self.wall_view)
             self.wall_correction(self.view(fluid, self.fluid_view), w, w, P, G)

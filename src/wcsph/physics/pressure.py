@@ -21,28 +21,16 @@ from ..registry import NONNEG, Choice, Param, add
 from .interaction import Terms, add_accel, add_force
 
 
-def make_bi_pressure(ctx):
+def make_bi_pressure(ctx, mirrored=False):
     """f_i -= <grad p>_i^{Omega,sym} = sum_j (p_i + p_j) grad_i W_ij V_j (WCSPH-BI spec;
-    antisymmetric in i, j, so fluid pairs conserve linear and angular momentum). Over boundary
-    particles (mirrored pressure) use ``make_mirrored_volume_pressure``."""
+    antisymmetric in i, j, so fluid pairs conserve linear and angular momentum). ``mirrored``:
+    over boundary particles with p_k = p_i and V_k = Psi_k/rho0."""
     grad = ctx.grad
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        f = -(I.p[i] + J.p[j]) * grad(r, P) * J.vol[j]
-        return add_force(acc, f * dx, f * dy, f * dz)
-
-    return term
-
-
-def make_mirrored_volume_pressure(ctx):
-    """The symmetric volume form over boundary particles with p_k = p_i: f_i -= 2 p_i
-    grad_i W_ik V_k, V_k = Psi_k/rho0."""
-    grad = ctx.grad
-
-    @register_jitable
-    def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        f = -(I.p[i] + I.p[i]) * grad(r, P) * J.vol[j]
+        pj = I.p[i] if mirrored else J.p[j]
+        f = -(I.p[i] + pj) * grad(r, P) * J.vol[j]
         return add_force(acc, f * dx, f * dy, f * dz)
 
     return term
@@ -173,7 +161,7 @@ def _bulk(ctx, q, term):
 
 
 def _build_bi(ctx, q):
-    return Terms([_bulk(ctx, q, make_bi_pressure)], _wall_part(ctx, q, make_mirrored_volume_pressure))
+    return Terms([_bulk(ctx, q, make_bi_pressure)], _wall_part(ctx, q, lambda ctx: make_bi_pressure(ctx, mirrored=True)))
 
 
 def _build_monaghan(ctx, q):

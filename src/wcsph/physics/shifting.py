@@ -38,10 +38,11 @@ from . import Correction
 R_TENSILE, N_TENSILE = 0.2, 4
 
 
-def make_shift_term(ctx, fluid=True):
+def make_shift_term(ctx, density_gradient):
     """Accumulator (gx, gy, gz, nx, ny, nz, div r, rx, ry, rz): the weighted gradient, the plain
-    one (for the normal), the position divergence and, over fluid neighbours, the density
-    gradient sum_j (rho_j - rho_i) grad_i W_ij V_j (for the shifted particle's density)."""
+    one (for the normal), the position divergence and, with ``density_gradient`` (fluid
+    neighbours, continuity density), sum_j (rho_j - rho_i) grad_i W_ij V_j for the shifted
+    particle's density (the last three stay zero otherwise, and the compiler drops them)."""
     w, grad = ctx.w, ctx.grad
     rt = ctx.dtype(R_TENSILE)
     one, zero = ctx.dtype(1), ctx.zero
@@ -52,7 +53,7 @@ def make_shift_term(ctx, fluid=True):
         q = w(r, P) * P.shift_w_dp_inv
         q2 = q * q
         t = (one + rt * q2 * q2) * g
-        d = (J.rho[j] - I.rho[i]) * g if fluid else zero
+        d = (J.rho[j] - I.rho[i]) * g if density_gradient else zero
         return (acc[0] + t * dx, acc[1] + t * dy, acc[2] + t * dz, acc[3] + g * dx, acc[4] + g * dy,
                 acc[5] + g * dz, acc[6] - g * r * r, acc[7] + d * dx, acc[8] + d * dy, acc[9] + d * dz)
 
@@ -77,7 +78,7 @@ def make_shift_boundary(ctx):
     return term
 
 
-def make_shift_store(ctx, per_particle):
+def make_shift_store(ctx, per_particle, continuity):
     dim, zero, one = ctx.dim, ctx.zero, ctx.dtype(1)
     tiny = ctx.dtype(1e-30)
 
@@ -107,8 +108,8 @@ def make_shift_store(ctx, per_particle):
         I.corr[1, i] = sy
         if dim == 3:
             I.corr[2, i] = sz
-        # the density carried to the new position: rho + dr . grad rho (Lind et al. 2012)
-        I.rho_corr[i] = I.rho[i] + sx * acc[7] + sy * acc[8] + (sz * acc[9] if dim == 3 else zero)
+        if continuity:  # the density carried to the new position: rho + dr . grad rho (Lind et al. 2012)
+            I.rho_corr[i] = I.rho[i] + sx * acc[7] + sy * acc[8] + (sz * acc[9] if dim == 3 else zero)
 
     return init, store
 
@@ -129,9 +130,10 @@ def make_shift_apply(ctx, continuity):
 
 def _build(per_particle):
     def build(ctx, q):
-        init, store = make_shift_store(ctx, per_particle)
-        wall = make_shift_term(ctx, fluid=False) if q.boundary == "particles" else make_shift_boundary(ctx)
-        return Correction(init, make_shift_term(ctx), store, make_shift_apply(ctx, q.continuity), wall=wall)
+        init, store = make_shift_store(ctx, per_particle, q.continuity)
+        wall = make_shift_term(ctx, False) if q.boundary == "particles" else make_shift_boundary(ctx)
+        return Correction(init, make_shift_term(ctx, q.continuity), store, make_shift_apply(ctx, q.continuity),
+                          wall=wall)
     return build
 
 
