@@ -12,6 +12,7 @@ import tomllib
 from pathlib import Path
 
 from . import plugins
+from .motion import MOTION
 from .registry import NONNEG, POS, REQUIRED, one_of
 
 CASES_DIR = Path(__file__).parent / "cases"
@@ -29,10 +30,14 @@ class CaseError(ValueError):
 SAFE_NAME = (lambda v: bool(re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", v)) and ".." not in v,
              "must be letters, digits, '_', '-' or '.' (it names the output directory runs/NAME)")
 BLOCK = {"min": ("vec", REQUIRED, None), "max": ("vec", REQUIRED, None)}
-FLUID_BLOCK = dict(BLOCK, velocity=("vec", None, None))
+#: initial velocity and pressure: numbers or formulas of x, y, z (``expressions``)
+FLUID_BLOCK = dict(BLOCK, velocity=("field", None, None), pressure=("formula", None, None))
+#: what every wall source (tank, obstacle, polygon) may add: a body name (its force and torque
+#: go to probes.csv) and a prescribed motion (``motion.MOTION``)
+BODY = {"name": ("str", "", None), "motion": (MOTION, None, None)}
 UNIT_OPEN = (lambda v: 0 <= v < 1, "must lie in [0, 1)")
 #: a 2D wall along a polyline; the fluid lies on the left of the direction of travel
-POLYGON = {"points": ("points", REQUIRED, None), "closed": ("bool", False, None)}
+POLYGON = dict({"points": ("points", REQUIRED, None), "closed": ("bool", False, None)}, **BODY)
 #: pressure sensor at ``position``; water-level gauge along the vertical line from
 #: ``position`` up by ``length`` (0: to the top of the domain)
 PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, one_of("pressure", "level")),
@@ -58,10 +63,12 @@ SCHEMA = {
     "dp": ("float", REQUIRED, POS),
     "precision": ("str", "float32", one_of("float32", "float64")),
     "backend": ("str", "cpu", one_of("cpu", "cuda")),
-    "domain": ({"min": ("vec", None, None), "max": ("vec", None, None)}, None, None),
+    # periodic: a flag per axis; the box [min, max) (or the tank's along that axis) repeats
+    "domain": ({"min": ("vec", None, None), "max": ("vec", None, None), "periodic": ("flags", None, None)},
+               None, None),
     "fluid": ([FLUID_BLOCK], REQUIRED, None),
-    "tank": (dict(BLOCK, open_top=("bool", True, None)), None, None),
-    "obstacle": ([BLOCK], [], None),
+    "tank": (dict(BLOCK, open_top=("bool", True, None), **BODY), None, None),
+    "obstacle": ([dict(BLOCK, **BODY)], [], None),
     "polygon": ([POLYGON], [], None),
     "physics": (dict({
         "rho0": ("float", 1000.0, POS),
@@ -136,6 +143,28 @@ def _leaf(src, key, kind, value, dim):
         if dim is not None and len(value) != dim:
             _fail(src, key, f"expected {dim} components (dim = {dim}), got {len(value)}")
         return [float(v) for v in value]
+    if kind == "formula":
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return _leaf(src, key, "float", value, dim)
+        if not isinstance(value, str):
+            _fail(src, key, f"expected a number or a formula of x, y, z, got {value!r}")
+        from .expressions import ExpressionError, check
+
+        try:
+            check(value)
+        except ExpressionError as e:
+            _fail(src, key, f"{value!r}: {e}")
+        return value
+    if kind == "field":
+        if not isinstance(value, list) or (dim is not None and len(value) != dim):
+            _fail(src, key, f"expected a list of {dim} numbers or formulas, got {value!r}")
+        return [_leaf(src, f"{key}[{a}]", "formula", v, dim) for a, v in enumerate(value)]
+    if kind == "flags":
+        if not isinstance(value, list) or not all(isinstance(v, bool) for v in value):
+            _fail(src, key, f"expected a list of {dim} true/false values, got {value!r}")
+        if dim is not None and len(value) != dim:
+            _fail(src, key, f"expected {dim} components (dim = {dim}), got {len(value)}")
+        return value
     if kind == "points":
         if not isinstance(value, list) or len(value) < 2:
             _fail(src, key, f"expected a list of at least two points, got {value!r}")
@@ -222,14 +251,39 @@ def validate(data, src="<case>"):
             if all(h - l > 1e-9 for l, h in zip(lo, hi)):
                 _fail(src, f"fluid[{b}]", f"overlaps fluid[{a}] (in {_num(lo)} .. {_num(hi)}); particles "
                       "placed twice start on top of each other")
+    names = [(key, b["name"]) for key, b in _wall_sources(case) if b["name"]]
+    for k, (key, name) in enumerate(names):
+        if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):
+            _fail(src, f"{key}.name", f"must be letters, digits and '_' (it names probes.csv columns), got {name!r}")
+        if any(name == other for _, other in names[:k]):
+            _fail(src, f"{key}.name", f"{name!r} names two bodies")
     d = case["domain"]
     if d is not None and (d["min"] is None) != (d["max"] is None):
         _fail(src, "domain", "give both min and max, or neither")
     if d is not None and d["min"] is not None:
         _check_box(src, "domain", d)
+    if d is not None and d["periodic"] is not None and any(d["periodic"]):
+        if d["min"] is None and case["tank"] is None:
+            _fail(src, "domain.periodic", "a periodic axis needs the box that repeats: give domain.min and "
+                  "domain.max (or a tank)")
+        box = d if d["min"] is not None else case["tank"]
+        for a, on in enumerate(d["periodic"]):
+            length = box["max"][a] - box["min"][a]
+            cells = length / case["dp"]
+            if on and abs(cells - round(cells)) > 1e-6 * max(cells, 1):
+                _fail(src, "domain.periodic", f"the periodic length {length:g} along axis {a} is not a whole "
+                      f"number of dp = {case['dp']:g} (the lattice would not join up across the seam)")
     case["_source"] = src
     case["_warnings"] = warnings
     return case
+
+
+def _wall_sources(case):
+    """(key, table) of every wall source of a validated case, in the order walls are built."""
+    out = [("tank", case["tank"])] if case["tank"] is not None else []
+    out += [(f"obstacle[{k}]", b) for k, b in enumerate(case["obstacle"])]
+    out += [(f"polygon[{k}]", b) for k, b in enumerate(case["polygon"])]
+    return out
 
 
 def _lift_parameters(src, data):

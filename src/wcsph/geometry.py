@@ -24,6 +24,7 @@ import os
 import numpy as np
 
 from .config import CaseError
+from .expressions import evaluate
 from .kernels import SUPPORT
 
 
@@ -59,6 +60,20 @@ def element_size(case):
     return s if case["dim"] == 2 else math.sqrt(s)
 
 
+def periodic_axes(case):
+    """A flag per axis (three, z False in 2D): the axes along which the domain repeats."""
+    d = case["domain"]
+    flags = list(d["periodic"]) if d is not None and d["periodic"] is not None else [False] * case["dim"]
+    return tuple(flags + [False] * (3 - len(flags)))
+
+
+def periodic_box(case):
+    """(lo, hi) of the repeating box: ``domain.min/max`` when given, else the tank's."""
+    d = case["domain"]
+    box = d if d is not None and d["min"] is not None else case["tank"]
+    return np.asarray(box["min"], dtype=float), np.asarray(box["max"], dtype=float)
+
+
 def wall_layers(case):
     layers = case["model"]["wall_layers"]
     if layers == 0 and case["model"]["wall_volume"] == "akinci":
@@ -74,18 +89,23 @@ def _inside(x, lo, hi, tol=0.0):
     return np.all((x > lo) & (x < hi), axis=0)
 
 
-def tank_particles(tank, dp, layers):
+def tank_particles(tank, dp, layers, periodic=(False, False, False)):
+    """The tank's walls, ``layers`` deep; none across a periodic axis (the lattice there
+    spans exactly the tank, so it joins up across the seam)."""
     lo = np.asarray(tank["min"], dtype=float)
     hi = np.asarray(tank["max"], dtype=float)
-    t = layers * dp
+    t = np.array([0.0 if periodic[a] else layers * dp for a in range(lo.size)])
     outer_hi = hi + t
     if tank["open_top"]:
         outer_hi[-1] = hi[-1]
     pts = lattice(lo - t, outer_hi, dp)
-    interior_hi = hi.copy()
+    interior_lo, interior_hi = lo.copy(), hi.copy()
     if tank["open_top"]:
         interior_hi[-1] = hi[-1] + dp  # no lid
-    return pts[:, ~_inside(pts, lo, interior_hi)]
+    for a in range(lo.size):
+        if periodic[a]:
+            interior_lo[a], interior_hi[a] = -np.inf, np.inf
+    return pts[:, ~_inside(pts, interior_lo, interior_hi)]
 
 
 def obstacle_particles(box, dp, layers):
@@ -113,16 +133,16 @@ def _tiles(lo, hi, size):
     return np.stack([m.ravel() for m in mesh]), float(np.prod(widths))
 
 
-def box_elements(box, size, fluid_inside, skip_top=False):
+def box_elements(box, size, fluid_inside, skip_top=False, periodic=(False, False, False)):
     """Boundary elements on the faces of ``box``: its inside is fluid (a tank) or solid (an
-    obstacle). Returns x (dim, N), n (dim, N), S (N,)."""
+    obstacle); no faces across a periodic axis. Returns x (dim, N), n (dim, N), S (N,)."""
     lo = np.asarray(box["min"], dtype=float)
     hi = np.asarray(box["max"], dtype=float)
     dim = lo.size
     xs, ns, ss = [], [], []
     for a in range(dim):
         for side, sign in ((lo, -1.0), (hi, 1.0)):
-            if skip_top and a == dim - 1 and sign > 0:
+            if (skip_top and a == dim - 1 and sign > 0) or periodic[a]:
                 continue
             f_lo, f_hi = lo.copy(), hi.copy()
             f_lo[a] = f_hi[a] = side[a]
@@ -156,18 +176,28 @@ def polygon_elements(points, closed, size):
 
 
 def boundary_elements(case, size):
-    """All boundary elements of ``case``: x, n, elementSize."""
+    """All boundary elements of ``case``: x, n, elementSize, and each one's body index (in
+    the order of ``wall_sources``)."""
     dim = case["dim"]
     parts = []
     if case["tank"] is not None:
-        parts.append(box_elements(case["tank"], size, True, case["tank"]["open_top"]))
+        parts.append(box_elements(case["tank"], size, True, case["tank"]["open_top"], periodic_axes(case)))
     for box in case["obstacle"]:
         parts.append(box_elements(box, size, False))
     for poly in case["polygon"]:
         parts.append(polygon_elements(poly["points"], poly["closed"], size))
     if not parts:
-        return np.zeros((dim, 0)), np.zeros((dim, 0)), np.zeros(0)
-    return tuple(np.concatenate(p, axis=-1) for p in zip(*parts))
+        return np.zeros((dim, 0)), np.zeros((dim, 0)), np.zeros(0), np.zeros(0, dtype=np.int64)
+    body = np.concatenate([np.full(p[0].shape[1], b, dtype=np.int64) for b, p in enumerate(parts)])
+    return tuple(np.concatenate(p, axis=-1) for p in zip(*parts)) + (body,)
+
+
+def wall_sources(case):
+    """(name, motion, key) of every wall source: the tank, the obstacles, the polygons; a
+    body each (``motion.Bodies``)."""
+    from .config import _wall_sources
+
+    return [(b["name"], b["motion"], key) for key, b in _wall_sources(case)]
 
 
 #: bytes per particle a run may hold, fluid and wall: an upper bound counted from the fields
@@ -213,12 +243,13 @@ def check_size(case):
 
 
 def build(case):
-    """The fluid (a dict: ``x``, ``v``, and ``top``, the top of each particle's block), the walls (a dict: ``x``, and for boundary elements
+    """The fluid (a dict: ``x``, ``v``, ``top``, the top of each particle's block, and ``p``,
+    its initial pressure where the block gives one, else NaN), the walls (a dict: ``x``, and for boundary elements
     ``n`` and ``elementSize``), and the domain box of ``case``."""
     src, dp, dim = case["_source"], case["dp"], case["dim"]
     if boundary_kind(case) == "elements":
-        x, n, size = boundary_elements(case, element_size(case))
-        wall_set = {"x": x, "n": n, "elementSize": size}
+        x, n, size, body = boundary_elements(case, element_size(case))
+        wall_set = {"x": x, "n": n, "elementSize": size, "body": body}
     else:
         if case["polygon"]:
             raise CaseError(f"{src}: polygon: polygon walls need boundary elements (model.BCType = "
@@ -226,13 +257,15 @@ def build(case):
         layers = wall_layers(case)
         parts = []
         if case["tank"] is not None:
-            parts.append(tank_particles(case["tank"], dp, layers))
+            parts.append(tank_particles(case["tank"], dp, layers, periodic_axes(case)))
         for box in case["obstacle"]:
             parts.append(obstacle_particles(box, dp, layers))
-        wall_set = {"x": np.concatenate(parts, axis=1) if parts else np.zeros((dim, 0))}
+        wall_set = {"x": np.concatenate(parts, axis=1) if parts else np.zeros((dim, 0)),
+                    "body": np.concatenate([np.full(p.shape[1], b, dtype=np.int64) for b, p in enumerate(parts)])
+                    if parts else np.zeros(0, dtype=np.int64)}
     walls = wall_set["x"]
 
-    xs, vs, tops = [], [], []
+    xs, vs, tops, ps = [], [], [], []
     for k, block in enumerate(case["fluid"]):
         if case["tank"] is not None:
             t = case["tank"]
@@ -247,10 +280,11 @@ def build(case):
             raise CaseError(f"{src}: fluid[{k}]: block is thinner than dp = {dp}, it holds no particle")
         for box in case["obstacle"]:  # obstacles displace the fluid they overlap
             x = x[:, ~_inside(x, np.asarray(box["min"]) - 0.5 * dp, np.asarray(box["max"]) + 0.5 * dp)]
-        v = block["velocity"] or [0.0] * dim
         xs.append(x)
-        vs.append(np.repeat(np.asarray(v, dtype=float)[:, None], x.shape[1], axis=1))
+        vs.append(np.stack([evaluate(str(c), x) for c in (block["velocity"] or [0.0] * dim)]))
         tops.append(np.full(x.shape[1], block["max"][-1]))
+        ps.append(evaluate(str(block["pressure"]), x) if block["pressure"] is not None
+                  else np.full(x.shape[1], np.nan))
     fluid_x = np.concatenate(xs, axis=1)
     fluid_v = np.concatenate(vs, axis=1)
     if fluid_x.shape[1] == 0:
@@ -258,6 +292,7 @@ def build(case):
 
     d = case["domain"]
     h = smoothing_length(case)
+    periodic = periodic_axes(case)
     if d is not None and d["min"] is not None:
         lo, hi = np.asarray(d["min"]), np.asarray(d["max"])
         outside = ~np.all((fluid_x >= lo[:, None]) & (fluid_x <= hi[:, None]), axis=0)
@@ -275,7 +310,16 @@ def build(case):
         lo = allx.min(axis=1) - SUPPORT * h
         hi = allx.max(axis=1) + SUPPORT * h
         hi[-1] += hi[-1] - lo[-1]  # head room for splashes
-    fluid = {"x": fluid_x, "v": fluid_v, "top": np.concatenate(tops)}
+    if any(periodic):
+        p_lo, p_hi = periodic_box(case)
+        for a in range(dim):
+            if periodic[a]:
+                lo[a], hi[a] = p_lo[a], p_hi[a]
+                out = (fluid_x[a] < lo[a]) | (fluid_x[a] >= hi[a])
+                if out.any():
+                    raise CaseError(f"{src}: fluid: {int(out.sum())} fluid particles lie outside the periodic "
+                                    f"box {lo[a]:g} .. {hi[a]:g} along axis {a}")
+    fluid = {"x": fluid_x, "v": fluid_v, "top": np.concatenate(tops), "p": np.concatenate(ps)}
     return fluid, wall_set, lo, hi
 
 

@@ -16,6 +16,7 @@ from .integrators import INTEGRATORS, SPEC_SCHEMES, IntegrationError, StateView
 from .io import probes, vtk
 from .kernels import SUPPORT, kernel_numpy, kernel_params
 from .models import get_model
+from .motion import Bodies
 from .particles import ParticleSet
 from .progress import Progress
 
@@ -96,7 +97,10 @@ class Simulation:
                 raise CaseError(f"{case['_source']}: model.searchRadius: {m['searchRadius']} is smaller than "
                                 f"the kernel support 2h = {rc:g}")
             rc = m["searchRadius"]
-        self.grid = Grid.covering(lo, hi, rc)
+        try:
+            self.grid = Grid.covering(lo, hi, rc, periodic=geometry.periodic_axes(case)[:dim])
+        except ValueError as e:
+            raise CaseError(f"{case['_source']}: domain.periodic: {e}") from None
         self.G = self.grid.view()
 
         ph = case["physics"]
@@ -128,7 +132,7 @@ class Simulation:
         self.P = model.params(kp, self.rho0, self.c0, h, self.gravity, 1.0, w_np)
 
         n = fluid_x.shape[1]
-        rho = model.initial_density(fluid_x, fluid0["top"], self.P, self.gravity)
+        rho = model.initial_density(fluid_x, fluid0["top"], self.P, self.gravity, fluid0["p"])
         self.fluid = ParticleSet("fluid", dim, {"x": be.to_device(fluid_x.astype(dtype)),
                                                "v": be.to_device(fluid_v.astype(dtype))})
         for name, kind, scratch in list(model.fluid_fields()) + list(self.integrator.fields):
@@ -138,11 +142,21 @@ class Simulation:
         self.fluid["id"] = be.to_device(np.arange(n, dtype=np.int64))  # follows the particle
         self._placeholders = {"k": be.to_device(np.zeros((1, 1, 1), dtype=dtype)),
                               "w": be.to_device(np.zeros(1, dtype=dtype))}
+        body = wall0.pop("body")
+        self.bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body,
+                             Path(case["_source"]).parent)
         self.walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
         self.walls.add("v", "vector", dtype, be)
+        self.walls["body"] = be.to_device(body)  # the body each wall point belongs to
+        if self.bodies.moving:  # the placement at t = 0 each moving wall point is carried from
+            self.walls["x0"] = be.to_device(wall0["x"].astype(dtype))
+            if "n" in wall0:
+                self.walls["n0"] = be.to_device(wall0["n"].astype(dtype))
         for name, kind in model.wall_fields():
             self.walls.add(name, kind, dtype, be)
+        self.place_walls(0.0)
         be.sort(self.walls, self.grid)
+        be.wrap(self.fluid, self.grid)
         be.sort(self.fluid, self.grid)
         model.initialize(self.fluid, self.walls, self.P, self.G, self.mass)
         self.probes = probes.PointProbes(self)
@@ -224,12 +238,80 @@ class Simulation:
         self.evaluations += 1
         self.model.derivatives(self.fluid, self.walls, P, self.G)
 
+    def place_walls(self, t):
+        """Moving walls to their position, normal and velocity at time t, then wrapped and
+        sorted (``motion.Bodies``); nothing when every wall is fixed."""
+        if not self.bodies.moving:
+            return
+        be, w = self.backend, self.walls
+        x0, body = self.host(w, "x0", "body")
+        n0 = be.to_host(w["n0"]) if "n0" in w.arrays else None
+        x, n, v = self.bodies.place(t, x0.astype(float), None if n0 is None else n0.astype(float), body)
+        w["x"] = be.to_device(x.astype(self.dtype))
+        w["v"] = be.to_device(v.astype(self.dtype))
+        if n is not None:
+            w["n"] = be.to_device(n.astype(self.dtype))
+        be.wrap(w, self.grid)
+        lost = be.sort(w, self.grid)
+        if lost:
+            raise SimulationError(f"{lost} wall points of a moving body left the domain at t = {t:.6g} s; "
+                                  "enlarge [domain] or change the motion")
+
+    def body_loads(self):
+        """Force and torque of the fluid on each named body: {NAME_fx, NAME_fy[, NAME_fz],
+        NAME_torque (2D) or NAME_tx, NAME_ty, NAME_tz (3D)}. The force is minus the sum of
+        m_i (a_i - a_i without the body) over the fluid: the derivatives are evaluated once
+        with every wall and once without the body's walls, at the current state (every field
+        they write is restored after). The torque is about the body's centre, with each
+        particle's share applied at the particle (an O(h) lever-arm approximation). With the
+        consistent wall model the Shepard factor changes without the body, so there the
+        difference is the body's share only to first order."""
+        named = [b for b, name in enumerate(self.bodies.names) if name]
+        if not named:
+            return {}
+        be, fl = self.backend, self.fluid
+        saved = {k: be.to_host(fl[k]).copy() for k in fl.per_particle() if k in fl.scratch or k == "rho"}
+        self.model.derivatives(fl, self.walls, self.P, self.G)
+        x, m, a_all = (a.astype(float) for a in self.host(fl, "x", "m", "dvdt"))
+        out = {}
+        host = {k: be.to_host(self.walls[k]) for k in self.walls.per_particle() if k != "cell"}
+        for b in named:
+            keep = host["body"] != b
+            rest = ParticleSet("walls", self.dim, {k: be.to_device(np.ascontiguousarray(a[..., keep]))
+                                                    for k, a in host.items()})
+            be.sort(rest, self.grid)
+            self.model.derivatives(fl, rest, self.P, self.G)
+            f = m * (a_all - be.to_host(fl["dvdt"]).astype(float))  # on the fluid, from the body
+            force = -f.sum(axis=1)
+            r = x - self.bodies.reference(b, self.t)[:, None]
+            name = self.bodies.names[b]
+            for a, c in enumerate("xyz"[: self.dim]):
+                out[f"{name}_f{c}"] = float(force[a])
+            if self.dim == 2:
+                out[f"{name}_torque"] = float(-np.sum(r[0] * f[1] - r[1] * f[0]))
+            else:
+                tq = -np.cross(r.T, f.T).sum(axis=0)
+                for a, c in enumerate("xyz"):
+                    out[f"{name}_t{c}"] = float(tq[a])
+        for k, a in saved.items():
+            fl[k] = be.to_device(a)
+        return out
+
+    def body_columns(self):
+        cols = []
+        for name in self.bodies.names:
+            if name:
+                cols += [f"{name}_f{c}" for c in "xyz"[: self.dim]]
+                cols += [f"{name}_torque"] if self.dim == 2 else [f"{name}_t{c}" for c in "xyz"]
+        return cols
+
     def step(self, dt):
         """One time step: sort by cell (once: the neighbour cells of the step's first state
         serve its later stages too, which moves particles by far less than a cell), the
         integrator's stages, then the model's wall corrections. An adaptive integrator may
         take a smaller step than ``dt``; returns the step taken."""
         be = self.backend
+        self.place_walls(self.t)
         self.dropped += be.sort(self.fluid, self.grid)
         self.P = self.params_for(dt)
         try:
@@ -239,6 +321,7 @@ class Simulation:
         if dt != float(self.P.dt):
             self.P = self.params_for(dt)
         self.model.correct(self.fluid, self.walls, self.P, self.G, self.steps + 1)
+        be.wrap(self.fluid, self.grid)  # a particle that left through a periodic side re-enters
         self.t += dt
         self.steps += 1
         if self.fluid.n == 0:
@@ -313,6 +396,7 @@ class Simulation:
         self.t, self.steps, self.evaluations = meta["t"], meta["steps"], meta["evaluations"]
         self.dropped, self.vmax, self.amax = meta["dropped"], meta["vmax"], meta["amax"]
         self.integrator.restore(meta["integrator"])
+        self.place_walls(self.t)
         self._resumed_output = meta["output"]
 
     # ------------------------------------------------------------------------------ running
@@ -434,24 +518,28 @@ class Output:
         # frames of an earlier run in the same directory (or, on a restart, written after
         # the checkpoint) would sit beside the series without being listed in it
         keep = {e[2] for e in self.entries}
-        for old in [*out.glob("fluid_[0-9]*.vtu"), *out.glob("fluid_failed.vtu"), *out.glob(".*.tmp[0-9]*")]:
+        for old in [*out.glob("fluid_[0-9]*.vtu"), *out.glob("walls_[0-9]*.vtu"), *out.glob("fluid_failed.vtu"),
+                    *out.glob(".*.tmp[0-9]*")]:
             if old.name not in keep:
                 old.unlink()
         self.last_good = "(none written)"
         cols = ["time", "step", "dt", "n_fluid", "kinetic_energy", "potential_energy"]
         if oc["surge_front"]:
             cols.append("surge_front")
-        cols += sim.probes.columns()
+        cols += sim.probes.columns() + sim.body_columns()
         self.stats = sim.integrator.columns()  # per-step figures of the scheme (midpoint, RK45)
         cols += self.stats + (["midpoint_iterations_max"] if "midpoint_iterations" in self.stats else [])
         upto = sim.steps if resumed else None  # a restart keeps the rows up to its checkpoint
         self.probes = probes.ProbeWriter(out / "probes.csv", cols, keep_steps=upto)
         self.steps_log = probes.ProbeWriter(out / "steps.csv", ["step", "time", "dt"] + self.stats,
                                             keep_steps=upto) if self.stats else None
-        if oc["vtk"] and sim.walls.n:
-            names = [k for k in ("n", "elementSize", "psi") if k in sim.walls.arrays]
-            vtk.write_points(out / "walls.vtu", sim.host(sim.walls, "x")[0],
-                             dict(zip(names, sim.host(sim.walls, *names))))
+        if oc["vtk"] and sim.walls.n and not sim.bodies.moving:
+            self._write_walls("walls.vtu")
+
+    def _write_walls(self, name):
+        sim = self.sim
+        names = [k for k in ("n", "elementSize", "psi", "v") if k in sim.walls.arrays]
+        vtk.write_points(self.out / name, sim.host(sim.walls, "x")[0], dict(zip(names, sim.host(sim.walls, *names))))
 
     def write(self, failed=False, sample=True):
         """A VTK frame (when ``vtk`` is on) and, with ``sample``, a row of probes.csv."""
@@ -466,7 +554,11 @@ class Output:
             vtk.write_points(self.out / name, x, {"rho": rho, "p": p, "v": v, "id": ids})
             if not failed:
                 self.entries.append((sim.t, 0, name))
-                if sim.walls.n:
+                if sim.walls.n and sim.bodies.moving:  # a frame of the walls too
+                    wname = f"walls_{self.count:04d}.vtu"
+                    self._write_walls(wname)
+                    self.entries.append((sim.t, 1, wname))
+                elif sim.walls.n:
                     self.entries.append((sim.t, 1, "walls.vtu"))
                 vtk.write_pvd(self.out / "fluid.pvd", [e for e in self.entries if e[1] == 0])
                 vtk.write_pvd(self.out / "case.pvd", self.entries)
@@ -485,6 +577,7 @@ class Output:
         if self.oc["surge_front"]:
             row["surge_front"] = probes.surge_front(x, sim.dp)
         row.update(values)
+        row.update(sim.body_loads())
         stats = sim.integrator.stats
         row.update(stats)
         if "midpoint_iterations" in stats:

@@ -1,5 +1,6 @@
 """CPU backend: Numba ``parallel=True`` loops over a cell list of particles physically
 reordered by cell (counting sort every step), so neighbours are read sequentially."""
+import warnings
 from contextlib import contextmanager
 
 import numpy as np
@@ -7,7 +8,12 @@ import numba
 from numba import literal_unroll, njit, prange
 from numba.extending import overload, register_jitable
 
-from .walk import make_run_visitor
+from .walk import make_periodic_walk, make_run_visitor
+
+# Numba's internal pedantic SSA check reports the visitor inlined several times into the
+# periodic walk (a note for Numba's developers; the compiled code is right: the periodic test
+# cases check it against the exact solutions)
+warnings.filterwarnings("ignore", category=numba.core.errors.NumbaIRAssumptionWarning)
 
 
 #: below this many particles the sort, the per-particle maps and the checks run on one
@@ -24,12 +30,12 @@ CHUNK = 128
 def _cell_id(x, i, origin, inv_cell, nx, ny, nz, ncells, k):
     """The cell of particle i, or ``ncells`` outside the domain (the ghost layers). Inlined
     by Numba: left as a call, it made the cell-id loop 4-6 times slower."""
-    cx = np.int64(np.floor((x[0, i] - origin[0]) * inv_cell))
-    cy = np.int64(np.floor((x[1, i] - origin[1]) * inv_cell))
+    cx = np.int64(np.floor((x[0, i] - origin[0]) * inv_cell[0]))
+    cy = np.int64(np.floor((x[1, i] - origin[1]) * inv_cell[1]))
     inside = (cx >= k) & (cx < nx - k) & (cy >= k) & (cy < ny - k)
     cz = np.int64(0)
     if x.shape[0] == 3:
-        cz = np.int64(np.floor((x[2, i] - origin[2]) * inv_cell))
+        cz = np.int64(np.floor((x[2, i] - origin[2]) * inv_cell[2]))
         inside = inside & (cz >= k) & (cz < nz - k)
     return cx + nx * (cy + ny * cz) if inside else ncells
 
@@ -126,7 +132,7 @@ def _check(x, v, a):
     return vmax2, amax2, bad
 
 
-def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, branchless=False):
+def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, branchless=False, periodic=None):
     """The one CPU neighbour loop: for each particle i of set I, visit the particles of
     J1 (and J2 when ``use2``) within the support radius, fold them into an accumulator with
     ``pair*``, then store it with ``finish``. Per cell row the 2k + 1 x-adjacent cells
@@ -136,9 +142,23 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, bra
     equal share each: the cost per particle varies (free surface, walls), and the static
     split left one thread idle for a third of a 2,500-particle pass (538 -> 370 us). The
     chunk size is a per-thread setting of Numba's scheduler that compiled code cannot set
-    and still be cached, hence the Python wrapper."""
+    and still be cached, hence the Python wrapper.
+
+    ``periodic`` (a flag per axis, or None): the loop of a grid with periodic axes, which
+    walks the cells around i through ``walk.make_periodic_walk``."""
     visit1 = make_run_visitor(dim, pair1, zero, inline="always", branchless=branchless)
     visit2 = make_run_visitor(dim, pair2, zero, inline="always", branchless=branchless)
+    if periodic is not None and any(periodic):
+        walk = make_periodic_walk(dim, visit1, visit2, use2, zero, periodic, inline="always")
+
+        @njit(parallel=True, fastmath=True, cache=cache)
+        def run_periodic(I, J1, J2, P, G):
+            for i in prange(I.x.shape[1]):
+                zi = I.x[2, i] if dim == 3 else zero
+                acc = walk(i, I.x[0, i], I.x[1, i], zi, I.cell[i], I, J1, J2, P, G, init(i, I, P))
+                finish(i, I, P, acc)
+
+        return _chunked(run_periodic)
 
     @njit(parallel=True, fastmath=True, cache=cache)
     def run(I, J1, J2, P, G):
@@ -158,6 +178,10 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, bra
                         acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - k], J2.start[cc + k + 1], P, acc)
             finish(i, I, P, acc)
 
+    return _chunked(run)
+
+
+def _chunked(run):
     def chunked(I, J1, J2, P, G):
         previous = numba.set_parallel_chunksize(CHUNK)
         try:
@@ -166,6 +190,21 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, bra
             numba.set_parallel_chunksize(previous)
 
     return chunked
+
+
+@njit(parallel=True, cache=True)
+def _wrap(x, lo, length, inv_cell, origin, k, real, axes):
+    """Put particles that left a periodic box through one side back at the other; a position
+    that rounding would still put in the ghost cells goes to the lower face."""
+    for i in prange(x.shape[1]):
+        for a in axes:
+            xa = x[a, i]
+            if xa < lo[a] or xa >= lo[a] + length[a]:
+                xa = lo[a] + (xa - lo[a]) % length[a]
+                c = np.int64(np.floor((xa - origin[a]) * inv_cell[a]))
+                if c < k or c >= k + real[a]:
+                    xa = lo[a]
+                x[a, i] = xa
 
 
 @contextmanager
@@ -224,14 +263,29 @@ class CpuBackend:
     def to_host(self, a):
         return np.asarray(a)
 
-    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False):
+    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False,
+                  periodic=None):
         """The compiled loop of one pass. ``cache=False`` for passes whose set or parameter
         types live outside the package (Numba's cache index of the loop is shared by all its
         closures and must unpickle in every process). ``branchless``: a performance choice
-        of the pass (see ``walk.make_run_visitor``); the result is the same."""
+        of the pass (see ``walk.make_run_visitor``); the result is the same. ``periodic``:
+        the grid's periodic axes (a flag per axis)."""
         use2 = pair2 is not None
         return _make_pass_loop(dim, init, pair1, pair2 if use2 else pair1, finish, use2,
-                               np.dtype(dtype).type(0), cache, branchless)
+                               np.dtype(dtype).type(0), cache, branchless, periodic)
+
+    def wrap(self, pset, grid):
+        """Particles of ``pset`` that crossed a periodic side re-enter at the other."""
+        if not grid.any_periodic or not pset.n:
+            return
+        x = pset["x"]
+        dt = x.dtype.type
+        lo, length = grid.lengths()
+        origin, inv = grid.geometry(dt)
+        axes = np.array([a for a in range(grid.dim) if grid.periodic[a]], dtype=np.int64)
+        real = np.asarray(grid.shape[: grid.dim], dtype=np.int64) - 2 * grid.reach
+        with _threads_for(pset.n):
+            _wrap(x, lo.astype(dt), length.astype(dt), inv, origin, grid.reach, real, axes)
 
     def make_map(self, fn):
         return _make_map_loop(fn)

@@ -12,7 +12,7 @@ import os
 import numpy as np
 from numba import cuda
 
-from .walk import make_run_visitor
+from .walk import make_periodic_walk, make_run_visitor
 
 THREADS = 128
 
@@ -33,12 +33,12 @@ def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
     i = cuda.grid(1)
     if i >= x.shape[1]:
         return
-    cx = int(math.floor((x[0, i] - origin[0]) * inv_cell))
-    cy = int(math.floor((x[1, i] - origin[1]) * inv_cell))
+    cx = int(math.floor((x[0, i] - origin[0]) * inv_cell[0]))
+    cy = int(math.floor((x[1, i] - origin[1]) * inv_cell[1]))
     inside = k <= cx < nx - k and k <= cy < ny - k
     cz = 0
     if x.shape[0] == 3:
-        cz = int(math.floor((x[2, i] - origin[2]) * inv_cell))
+        cz = int(math.floor((x[2, i] - origin[2]) * inv_cell[2]))
         inside = inside and k <= cz < nz - k
     cell[i] = cx + nx * (cy + ny * cz) if inside else ncells
 
@@ -77,10 +77,45 @@ def _speeds(x, v, a, out):
     out[2, i] = 0.0 if ok else 1.0
 
 
-def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero):
+@cuda.jit
+def _wrap(x, lo, length, inv_cell, origin, k, real, axes):
+    """The CPU backend's ``_wrap``, one thread per particle."""
+    i = cuda.grid(1)
+    if i >= x.shape[1]:
+        return
+    for m in range(axes.size):
+        a = axes[m]
+        xa = x[a, i]
+        if xa < lo[a] or xa >= lo[a] + length[a]:
+            xa = lo[a] + (xa - lo[a]) % length[a]
+            c = int(math.floor((xa - origin[a]) * inv_cell[a]))
+            if c < k or c >= k + real[a]:
+                xa = lo[a]
+            x[a, i] = xa
+
+
+def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None):
     """The one CUDA neighbour loop, the same walk as the CPU backend's, one thread per i."""
     visit1 = make_run_visitor(dim, pair1, zero)
     visit2 = make_run_visitor(dim, pair2, zero)
+    if periodic is not None and any(periodic):
+        walk = make_periodic_walk(dim, visit1, visit2, use2, zero, periodic)
+
+        @cuda.jit
+        def run_periodic(I, J1, J2, P, G):
+            i = cuda.grid(1)
+            if i >= I.x.shape[1]:
+                return
+            zi = I.x[2, i] if dim == 3 else zero
+            acc = walk(i, I.x[0, i], I.x[1, i], zi, I.cell[i], I, J1, J2, P, G, init(i, I, P))
+            finish(i, I, P, acc)
+
+        def launch_periodic(I, J1, J2, P, G):
+            n = I.x.shape[1]
+            if n:
+                run_periodic[_blocks(n), THREADS](I, J1, J2, P, G)
+
+        return launch_periodic
 
     @cuda.jit
     def run(I, J1, J2, P, G):
@@ -164,13 +199,27 @@ class CudaBackend:
     def to_host(self, a):
         return a.copy_to_host() if hasattr(a, "copy_to_host") else np.asarray(a)
 
-    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False):
+    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False,
+                  periodic=None):
         """Same interface as the CPU backend; ``cache`` has no effect (kernels compile per
         process), nor ``branchless`` (a thread that skips a pair frees its warp's lane: the
         branch is the faster form on a GPU)."""
         use2 = pair2 is not None
         return _make_pass_kernel(dim, init, pair1, pair2 if use2 else pair1, finish, use2,
-                                 np.dtype(dtype).type(0))
+                                 np.dtype(dtype).type(0), periodic)
+
+    def wrap(self, pset, grid):
+        if not grid.any_periodic or not pset.n:
+            return
+        x = pset["x"]
+        dt = np.dtype(x.dtype).type
+        lo, length = grid.lengths()
+        origin, inv = grid.geometry(dt)
+        axes = np.array([a for a in range(grid.dim) if grid.periodic[a]], dtype=np.int64)
+        real = np.asarray(grid.shape[: grid.dim], dtype=np.int64) - 2 * grid.reach
+        _wrap[_blocks(pset.n), THREADS](x, cuda.to_device(lo.astype(dt)), cuda.to_device(length.astype(dt)),
+                                         cuda.to_device(inv), cuda.to_device(origin), grid.reach,
+                                         cuda.to_device(real), cuda.to_device(axes))
 
     def make_map(self, fn):
         return _make_map_kernel(fn)
@@ -187,7 +236,7 @@ class CudaBackend:
             pset["cell"] = cuda.device_array(n, dtype=np.int64)
         cell = pset["cell"]
         if n:
-            _cell_ids[_blocks(n), THREADS](x, cuda.to_device(origin), inv_cell, g.nx, g.ny, g.nz,
+            _cell_ids[_blocks(n), THREADS](x, cuda.to_device(origin), cuda.to_device(inv_cell), g.nx, g.ny, g.nz,
                                             g.ncells, g.k, cell)
         if _cp is not None:
             c = _cp.asarray(cell)

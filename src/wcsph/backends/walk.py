@@ -35,3 +35,68 @@ def make_run_visitor(dim, pair, zero, inline="never", branchless=False):
         return acc
 
     return visit
+
+
+def make_periodic_walk(dim, visit1, visit2, use2, zero, periodic, inline="never"):
+    """``walk(i, xi, yi, zi, c, I, J1, J2, P, G, acc)``: the cells within k of cell c of a
+    grid with periodic axes (``periodic``: a compile-time flag per axis). A neighbour cell
+    beyond a periodic side is its image on the other side, k..k+n-1 the real cells: its
+    particles are visited with i's position shifted by the length L of the box (x_i + L
+    below the lower side, x_i - L above the upper), so that dx = x_i - x_j is the distance to
+    the nearest image. Along a periodic x axis a run of cells that crosses the side is walked
+    cell by cell; elsewhere it is one run, as in the plain loop."""
+    px = periodic[0]
+    py = periodic[1]
+    pz = periodic[2] if len(periodic) > 2 else False
+    ftype = type(zero)
+
+    @register_jitable(inline=inline)
+    def walk(i, xi, yi, zi, c, I, J1, J2, P, G, acc):
+        k = G.k
+        kz = k if dim == 3 else 0
+        cx = c % G.nx
+        cy = (c // G.nx) % G.ny
+        cz = c // G.sz
+        for oz in range(-kz, kz + 1):
+            rz = cz + oz
+            zs = zi
+            if pz:
+                if rz < k:
+                    rz += G.rz
+                    zs = zi + ftype(G.Lz)
+                elif rz >= k + G.rz:
+                    rz -= G.rz
+                    zs = zi - ftype(G.Lz)
+            for oy in range(-k, k + 1):
+                ry = cy + oy
+                ys = yi
+                if py:
+                    if ry < k:
+                        ry += G.ry
+                        ys = yi + ftype(G.Ly)
+                    elif ry >= k + G.ry:
+                        ry -= G.ry
+                        ys = yi - ftype(G.Ly)
+                row = ry * G.sy + rz * G.sz
+                if px and (cx < 2 * k or cx + k >= k + G.rx):
+                    for ox in range(-k, k + 1):
+                        rx = cx + ox
+                        xs = xi
+                        if rx < k:
+                            rx += G.rx
+                            xs = xi + ftype(G.Lx)
+                        elif rx >= k + G.rx:
+                            rx -= G.rx
+                            xs = xi - ftype(G.Lx)
+                        cc = row + rx
+                        acc = visit1(i, xs, ys, zs, I, J1, J1.start[cc], J1.start[cc + 1], P, acc)
+                        if use2:
+                            acc = visit2(i, xs, ys, zs, I, J2, J2.start[cc], J2.start[cc + 1], P, acc)
+                else:
+                    cc = row + cx
+                    acc = visit1(i, xi, ys, zs, I, J1, J1.start[cc - k], J1.start[cc + k + 1], P, acc)
+                    if use2:
+                        acc = visit2(i, xi, ys, zs, I, J2, J2.start[cc - k], J2.start[cc + k + 1], P, acc)
+        return acc
+
+    return walk

@@ -54,7 +54,7 @@ DRY = 0.1
 GAUGE_SAMPLES = 4
 
 
-def _make_sampler(ctx, backend):
+def _make_sampler(ctx, backend, periodic):
     from numba.extending import register_jitable
 
     w, zero = ctx.w, ctx.zero
@@ -73,7 +73,7 @@ def _make_sampler(ctx, backend):
         I.sum_p[i] = acc[0]
         I.sum_w[i] = acc[1]
 
-    return backend.make_pass(ctx.dim, ctx.dtype, init, pair, store)
+    return backend.make_pass(ctx.dim, ctx.dtype, init, pair, store, periodic=periodic)
 
 
 class PointProbes:
@@ -125,7 +125,7 @@ class PointProbes:
         be.sort(self.points, sim.grid)
         self.order = np.argsort(be.to_host(self.points["order"]))
         ctx = Ctx.create(dtype, sim.dim, case["model"]["kernel"])
-        self.sampler = _make_sampler(ctx, be)
+        self.sampler = _make_sampler(ctx, be, sim.model.periodic)
 
     def columns(self):
         return [p["name"] for p in self.specs]

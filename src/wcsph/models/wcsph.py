@@ -145,7 +145,12 @@ class WCSPH:
         self.needs_c = sel["pressure"].name == "Monaghan1992ArtificialViscosity"
         s = _stores(ctx, eos_p, self.continuity, self.consistent, sel["pressure"].name.startswith("Monaghan"),
                     self.corrected, q.sound if self.needs_c else None)
-        mk = backend.make_pass
+        from ..geometry import periodic_axes
+
+        self.periodic = periodic_axes(case)
+
+        def mk(*args, **kw):
+            return backend.make_pass(*args, periodic=self.periodic, **kw)
 
         if self.continuity:
             self.initialize_map = backend.make_map(s["initialize"])
@@ -257,14 +262,17 @@ class WCSPH:
     def kinematic_viscosity(self):
         return kinematic_viscosity(self.case)
 
-    def initial_density(self, x, tops, P, gravity):
-        """Continuity density: hydrostatic under each fluid block's top (``tops``),
-        rho = EOS^-1(p0 + rho0 |g| depth), so that a column starts in equilibrium (DualSPHysics
+    def initial_density(self, x, tops, P, gravity, pressure=None):
+        """Continuity density: rho = EOS^-1(p0 + p) with p the block's ``pressure`` where
+        given (``pressure``, NaN elsewhere), else hydrostatic under each fluid block's top
+        (``tops``), p = rho0 |g| depth, so that a column starts in equilibrium (DualSPHysics
         and TNL-SPH cases do the same). Summation density: rho0 (the first evaluation sums it)."""
         if not self.continuity:
             return np.full(x.shape[1], float(P.rho0))
         g = abs(float(gravity[-1]))
         dpres = float(P.rho0) * g * np.maximum(tops - x[-1], 0.0)
+        if pressure is not None:
+            dpres = np.where(np.isnan(pressure), dpres, pressure)
         Pd = P._replace(**{f: float(v) for f, v in P._asdict().items()})  # in double precision
         return np.asarray(self.q.eos_density(Pd.p0 + dpres, Pd), dtype=float)
 

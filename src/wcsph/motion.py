@@ -1,0 +1,161 @@
+"""Prescribed motion of walls: each tank, obstacle, polygon (and wall file) is a rigid body,
+fixed unless it has a ``motion`` table.
+
+A body's wall points move as X(t) = c + d(t) + R(theta(t)) (X0 - c) and their normals as
+n(t) = R(theta(t)) n0, with c the body's ``centre`` (its initial centroid when not given),
+d(t) the displacement and theta(t) the rotation angle (about z in 2D, about ``axis`` in 3D).
+The wall velocity v_b = d'(t) + omega x (X - c - d) is what every wall term reads (the
+boundary-integral divergence and viscous terms, Akinci's viscous term, the elastic bounce,
+NBVC-PST), as in DualSPHysics' moving boundaries and TNL-SPH's movingSquare2D.
+
+Kinds (``motion.kind``):
+
+* ``velocity``: d = U t, theta = omega t (constant ``velocity`` U and ``omega``);
+* ``sinusoidal``: d = A sin(2 pi f t + phi), theta = Theta sin(2 pi f t + phi) (``amplitude``
+  A, ``angle_amplitude`` Theta, ``frequency`` f, ``phase`` phi);
+* ``table``: a CSV ``file`` with columns t, x, y[, z], theta (a header row allowed): d and
+  theta interpolated linearly, their rates from central differences of the table.
+"""
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .registry import NONNEG, one_of
+
+#: the ``motion`` table of a wall source, in the config schema's form
+MOTION = {
+    "kind": ("str", "velocity", one_of("velocity", "sinusoidal", "table")),
+    "velocity": ("vec", None, None),
+    "omega": ("float", 0.0, None),
+    "amplitude": ("vec", None, None),
+    "angle_amplitude": ("float", 0.0, None),
+    "frequency": ("float", 0.0, NONNEG),
+    "phase": ("float", 0.0, None),
+    "centre": ("vec", None, None),
+    "axis": ("vec", None, None),
+    "file": ("str", "", None),
+}
+
+
+class Motion:
+    """d(t), theta(t) and their rates for one ``motion`` table (validated)."""
+
+    def __init__(self, spec, dim, source_dir=".", key="motion"):
+        from .config import CaseError
+
+        self.spec, self.dim = spec, dim
+        self.kind = spec["kind"]
+        zero = [0.0] * dim
+        self.u = np.asarray(spec["velocity"] or zero, dtype=float)
+        self.a = np.asarray(spec["amplitude"] or zero, dtype=float)
+        axis = np.asarray(spec["axis"] or ([0.0, 0.0, 1.0] if dim == 3 else [0.0]), dtype=float)
+        if dim == 3:
+            norm = float(np.linalg.norm(axis))
+            if norm == 0:
+                raise CaseError(f"{key}.axis: must not be zero")
+            axis = axis / norm
+        self.axis = axis
+        if self.kind == "sinusoidal" and spec["frequency"] <= 0:
+            raise CaseError(f"{key}.frequency: a sinusoidal motion needs a frequency > 0")
+        if self.kind == "table":
+            if not spec["file"]:
+                raise CaseError(f"{key}.file: a table motion needs a CSV file of t, x, y[, z], theta")
+            path = Path(source_dir) / spec["file"]
+            try:
+                data = np.loadtxt(path, delimiter=",", comments="#", ndmin=2,
+                                  skiprows=1 if _has_header(path) else 0)
+            except (OSError, ValueError) as e:
+                raise CaseError(f"{key}.file: cannot read {path}: {e}") from None
+            if data.shape[1] != dim + 2 or data.shape[0] < 2:
+                raise CaseError(f"{key}.file: {path}: expected at least two rows of {dim + 2} columns "
+                                f"(t, {'x, y, z' if dim == 3 else 'x, y'}, theta), got {data.shape}")
+            t = data[:, 0]
+            if np.any(np.diff(t) <= 0):
+                raise CaseError(f"{key}.file: {path}: the times must increase")
+            self.table = data
+            self.rates = np.gradient(data[:, 1:], t, axis=0)
+
+    def state(self, t):
+        """(d (dim,), theta, d' (dim,), omega) at time t."""
+        s = self.spec
+        if self.kind == "velocity":
+            return self.u * t, s["omega"] * t, self.u, s["omega"]
+        if self.kind == "sinusoidal":
+            w = 2 * math.pi * s["frequency"]
+            arg = w * t + s["phase"]
+            return (self.a * math.sin(arg), s["angle_amplitude"] * math.sin(arg),
+                    self.a * w * math.cos(arg), s["angle_amplitude"] * w * math.cos(arg))
+        tab, t0 = self.table, self.table[:, 0]
+        row = np.array([np.interp(t, t0, tab[:, k]) for k in range(1, tab.shape[1])])
+        rate = np.array([np.interp(t, t0, self.rates[:, k]) for k in range(self.rates.shape[1])])
+        return row[: self.dim], float(row[-1]), rate[: self.dim], float(rate[-1])
+
+    def rotation(self, theta):
+        """The rotation matrix R(theta) (dim x dim)."""
+        c, s = math.cos(theta), math.sin(theta)
+        if self.dim == 2:
+            return np.array([[c, -s], [s, c]])
+        k = self.axis
+        K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+        return np.eye(3) + s * K + (1 - c) * K @ K
+
+
+def _has_header(path):
+    with open(path, encoding="utf-8") as f:
+        first = f.readline()
+    try:
+        [float(v) for v in first.split(",")]
+        return False
+    except ValueError:
+        return True
+
+
+class Bodies:
+    """The walls' rigid bodies: their names, motions and centres, and the placement of the
+    wall points of the moving ones at time t (on the host; walls are few beside the fluid)."""
+
+    def __init__(self, specs, dim, x0, n0, body, source_dir="."):
+        """``specs``: one (name, motion table or None, key) per body; ``x0``, ``n0``: the
+        wall points and normals (n0 None for wall particles) at t = 0; ``body``: each
+        point's body index."""
+        self.dim = dim
+        self.names = [s[0] for s in specs]
+        self.motions = [Motion(m, dim, source_dir, key) if m is not None else None for _, m, key in specs]
+        self.centres = []
+        for b, (_, m, _) in enumerate(specs):
+            pts = x0[:, body == b]
+            if m is not None and m["centre"] is not None:
+                self.centres.append(np.asarray(m["centre"], dtype=float))
+            else:
+                self.centres.append(pts.mean(axis=1) if pts.shape[1] else np.zeros(dim))
+        self.moving = any(m is not None for m in self.motions)
+
+    def place(self, t, x0, n0, body):
+        """(x, n, v) of every wall point at time t."""
+        x, v = x0.copy(), np.zeros_like(x0)
+        n = n0.copy() if n0 is not None else None
+        for b, mo in enumerate(self.motions):
+            if mo is None:
+                continue
+            sel = body == b
+            c = self.centres[b][:, None]
+            d, theta, u, omega = mo.state(t)
+            R = mo.rotation(theta)
+            r = R @ (x0[:, sel] - c)
+            x[:, sel] = c + d[:, None] + r
+            if n is not None:
+                n[:, sel] = R @ n0[:, sel]
+            if self.dim == 2:
+                w = np.array([-r[1], r[0]]) * omega
+            else:
+                w = np.cross(mo.axis * omega, r.T).T
+            v[:, sel] = u[:, None] + w
+        return x, n, v
+
+    def reference(self, b, t):
+        """The centre of body b at time t (the point torques are taken about)."""
+        mo = self.motions[b]
+        if mo is None:
+            return self.centres[b]
+        return self.centres[b] + mo.state(t)[0]
