@@ -21,7 +21,7 @@ def test_element_normals_point_out_of_the_fluid():
                      "fluid": [{"min": [0.0, 0.0], "max": [0.5, 0.5]}],
                      "tank": {"min": [0.0, 0.0], "max": [2.0, 1.0]},
                      "obstacle": [{"min": [1.0, 0.0], "max": [1.4, 0.2]}]})
-    x, n, s = geometry.boundary_elements(case, 0.1)
+    x, n, s, body = geometry.boundary_elements(case, 0.1)
     assert np.allclose(np.linalg.norm(n, axis=0), 1)
     floor = (x[1] == 0) & (x[0] < 1.0)
     assert floor.any() and np.allclose(n[:, floor].T, [0, -1])          # tank floor

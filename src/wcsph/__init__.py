@@ -1,6 +1,14 @@
 """wcsph: weakly compressible SPH for free-surface flows, on CPU (Numba) and NVIDIA GPUs."""
 from . import numba_cache, threads
 
+import warnings as _warnings
+
+from numba.core.errors import NumbaIRAssumptionWarning as _IRWarning
+
+# Numba's internal pedantic SSA check reports the visitor inlined several times into the
+# periodic neighbour walk (a note for Numba's developers; the compiled code is right: the
+# periodic cases are checked against their exact solutions)
+_warnings.filterwarnings("ignore", category=_IRWarning)
 threads.configure()  # before any compiled loop starts Numba's threads
 numba_cache.install()  # an index left by an older wcsph is recompiled, not a traceback
 

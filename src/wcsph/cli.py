@@ -53,6 +53,15 @@ def _parser():
     pl.add_argument("directory", help="the run's output directory")
     sub.add_parser("cases", help="list the shipped cases")
     sub.add_parser("slots", help="list the plug-in slots of [model], their choices and parameters (Markdown)")
+    va = sub.add_parser("validate", help="run the validation set against its references; write a report",
+                        description="Run each validation case (Poiseuille, Couette, Taylor-Green, hydrostatic "
+                                    "tanks; with the full set also the dam breaks against Martin & Moyce and "
+                                    "Koshizuka & Oka, and convergence studies), compare it with its reference "
+                                    "and tolerance, and write DIR/report.md with a pass/fail table and a plot "
+                                    "per check. Exit status 1 when a check fails.")
+    va.add_argument("--quick", action="store_true", help="the quick subset (a few minutes on two cores)")
+    va.add_argument("--only", default=None, metavar="NAME", help="only the checks whose name contains NAME")
+    va.add_argument("--output", "-o", default="runs/validation", help="report directory (default: runs/validation)")
     sh = sub.add_parser("show", help="print a shipped case as TOML (to start a case of your own)")
     sh.add_argument("case", help="a shipped case name or a case file")
     return p
@@ -141,6 +150,18 @@ def _main(argv):
         return 0
     if args.command == "plot":
         return _plot(args.directory)
+    if args.command == "validate":
+        from .validation import run_all
+
+        try:
+            _check_output(args.output, "--output")
+        except CaseError as e:
+            print(f"wcsph: error: {e}", file=sys.stderr)
+            return 2
+        results = run_all(args.output, quick=args.quick, only=args.only)
+        print(f"{sum(r.passed for r in results)} of {len(results)} checks pass; report: "
+              f"{Path(args.output) / 'report.md'}")
+        return 0 if all(r.passed for r in results) else 1
     if args.command == "show":
         try:
             print(resolve(args.case).read_text(), end="")

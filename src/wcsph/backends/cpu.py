@@ -1,6 +1,5 @@
 """CPU backend: Numba ``parallel=True`` loops over a cell list of particles physically
 reordered by cell (counting sort every step), so neighbours are read sequentially."""
-import warnings
 from contextlib import contextmanager
 
 import numpy as np
@@ -9,11 +8,6 @@ from numba import literal_unroll, njit, prange
 from numba.extending import overload, register_jitable
 
 from .walk import make_periodic_walk, make_run_visitor
-
-# Numba's internal pedantic SSA check reports the visitor inlined several times into the
-# periodic walk (a note for Numba's developers; the compiled code is right: the periodic test
-# cases check it against the exact solutions)
-warnings.filterwarnings("ignore", category=numba.core.errors.NumbaIRAssumptionWarning)
 
 
 #: below this many particles the sort, the per-particle maps and the checks run on one

@@ -1,0 +1,285 @@
+"""``wcsph validate``: the validation set, each case run and compared with its reference
+(``references``: published data shipped in ``data/``, analytic solutions), and one report.
+
+Every check returns a ``Result``: the measured figure, the tolerance it must meet, and the
+curves of its plot. ``run_all`` writes ``report.md`` (a pass/fail table, then one section and
+one PNG per check) atomically into the output directory. ``--quick`` runs the checks marked
+quick (a few minutes on two cores); the full set adds the dam breaks, the classic wall model
+and the convergence studies.
+"""
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import references as ref
+
+
+@dataclass
+class Result:
+    name: str
+    what: str  # the figure compared, in words
+    reference: str  # what it is compared with (and the source)
+    measured: float
+    tolerance: float
+    passed: bool
+    detail: str = ""
+    curves: list = field(default_factory=list)  # (label, x, y, kind: 'sim' | 'ref')
+    axes: tuple = ("", "")
+    seconds: float = 0.0
+
+
+def _sim(case, overrides=()):
+    """A Simulation of a shipped case name, or of a case dict, with ``KEY=VALUE`` overrides."""
+    import copy
+    import warnings
+
+    from ..config import apply_override, load, validate
+    from ..solver import Simulation
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if isinstance(case, dict):
+            data = copy.deepcopy(case)
+            for key, value in overrides:
+                apply_override(data, key, value)
+            return Simulation(validate(data, "<validation>"))
+        return Simulation(load(case, list(overrides)))
+
+
+def _advance(sim, t):
+    while sim.t < t - 1e-12 * max(t, 1.0):
+        sim.step(min(sim.time_step(), t - sim.t))
+
+
+def _profile_check(name, case_name, exact, times, scale, overrides=(), tol=0.01):
+    """Run ``case_name`` and compare u_x(y) with ``exact(y, t)`` at ``times``: the L2 error
+    over all particles relative to ``scale`` (the steady peak velocity), the largest of the
+    times."""
+    sim = _sim(case_name, overrides)
+    errors, curves = [], []
+    for t in times:
+        _advance(sim, t)
+        x, v = (a.astype(float) for a in sim.host(sim.fluid, "x", "v"))
+        e = math.sqrt(float(np.mean((v[0] - exact(x[1], sim.t)) ** 2))) / scale
+        errors.append(e)
+        order = np.argsort(x[1])
+        yy = np.linspace(0, x[1].max() + 0.5 * sim.dp, 200)
+        curves += [(f"t = {t:g} s", v[0][order], x[1][order], "sim"), (None, exact(yy, sim.t), yy, "ref")]
+    worst = max(errors)
+    return Result(name, "L2 error of u_x / u_max, largest over t = " + ", ".join(f"{t:g}" for t in times),
+                  "Morris, Fox & Zhu (1997) series solution", worst, tol, worst < tol,
+                  "errors " + ", ".join(f"{e:.2%}" for e in errors) + f"; {sim.fluid.n} fluid particles",
+                  curves, ("u_x [m/s]", "y [m]"))
+
+
+def poiseuille(quick, overrides=(), name="Poiseuille, periodic, WCSPH-BI"):
+    L, F, nu = 1e-3, 2e-4, 1e-6
+    return _profile_check(name, "poiseuille_2d", lambda y, t: ref.poiseuille(y, t, L, F, nu), (0.1, 0.3, 1.0),
+                          F * L**2 / (8 * nu), overrides)
+
+
+def couette(quick, overrides=(), name="Couette, moving wall, WCSPH-BI"):
+    L, U, nu = 1e-3, 2.5e-5, 1e-6
+    return _profile_check(name, "couette_2d", lambda y, t: ref.couette(y, t, L, U, nu), (0.05, 0.2, 1.0), U,
+                          overrides)
+
+
+def _tg_rate(dp, end=1.0):
+    sim = _sim("taylor_green_2d", [("dp", dp), ("time.end", end)])
+    ts, ks = [], []
+    for k in range(21):
+        _advance(sim, end * k / 20)
+        v, m = (a.astype(float) for a in sim.host(sim.fluid, "v", "m"))
+        ts.append(sim.t)
+        ks.append(0.5 * float(np.sum(m * (v**2).sum(0))))
+    ts, ks = np.array(ts), np.array(ks)
+    return np.polyfit(ts, np.log(ks / ks[0]), 1)[0], ts, ks / ks[0]
+
+
+def taylor_green(quick):
+    exact = ref.taylor_green_decay_rate(100.0)
+    rate, ts, ks = _tg_rate(0.01)
+    err = abs(rate / exact - 1)
+    return Result("Taylor-Green vortex, Re = 100, 100 x 100", "decay rate of E_k (fit of ln E_k, 0 <= t <= 1)",
+                  "exp(-16 pi^2 t / Re) (Taylor & Green 1937)", err, 0.02, err < 0.02,
+                  f"rate {rate:.4f} against {exact:.4f}; delta+ shifting, MVT viscosity, Molteni diffusion",
+                  [("SPH", ts, ks, "sim"), ("exact", ts, np.exp(exact * ts), "ref")], ("t [s]", "E_k / E_k(0)"))
+
+
+def _convergence(name, dps, errors, what):
+    order = np.polyfit(np.log(dps), np.log(errors), 1)[0]
+    return Result(name, f"measured order of the {what} (fit over dp = " + ", ".join(f"{d:g}" for d in dps) + ")",
+                  "at least first order", order, 1.0, bool(order >= 1.0),
+                  "errors " + ", ".join(f"{e:.3%}" for e in errors),
+                  [("SPH", np.asarray(dps), np.asarray(errors), "sim"),
+                   ("order 1", np.asarray(dps), errors[-1] * (np.asarray(dps) / dps[-1]), "ref"),
+                   ("order 2", np.asarray(dps), errors[-1] * (np.asarray(dps) / dps[-1]) ** 2, "ref")],
+                  ("dp [m]", "error"))
+
+
+def convergence_taylor_green(quick):
+    exact = ref.taylor_green_decay_rate(100.0)
+    dps = [0.04, 0.02, 0.01]
+    errs = [abs(_tg_rate(dp)[0] / exact - 1) for dp in dps]
+    return _convergence("Convergence, Taylor-Green", dps, errs, "decay-rate error")
+
+
+def convergence_poiseuille(quick):
+    L, F, nu = 1e-3, 2e-4, 1e-6
+    dps = [1e-4, 5e-5, 2.5e-5]
+    errs = [poiseuille(quick, [("dp", dp)]).measured for dp in dps]
+    return _convergence("Convergence, Poiseuille", dps, errs, "L2 velocity error")
+
+
+def _hydrostatic(case_name, label):
+    sim = _sim(case_name, [("time.end", 2.0)])
+    _advance(sim, 2.0)
+    sim.model.refresh(sim.fluid, sim.P)
+    x, p = (a.astype(float) for a in sim.host(sim.fluid, "x", "p"))
+    H, rho0, g = 0.5, float(sim.rho0), 9.81
+    lo, hi = sim.domain
+    sel = (x[1] > 0.1 * H) & (x[1] < 0.8 * H) & (np.abs(x[0] - 0.5 * (x[0].min() + x[0].max())) < 0.3)
+    slope, p_floor = np.polyfit(x[1][sel], p[sel], 1)
+    err = abs(p_floor / (rho0 * g * H) - 1)
+    yy = np.linspace(0, H, 50)
+    return Result(f"Hydrostatic tank, {label}", "floor pressure (fit of the interior) / rho0 g H - 1",
+                  "p = rho0 g (H - y)", err, 0.02, err < 0.02, f"floor pressure {p_floor:.1f} Pa",
+                  [("SPH", p, x[1], "sim"), ("rho0 g (H - y)", rho0 * g * (H - yy), yy, "ref")], ("p [Pa]", "y [m]"))
+
+
+def hydrostatic_classic(quick):
+    return _hydrostatic("hydrostatic_2d", "classic")
+
+
+def hydrostatic_bi(quick):
+    return _hydrostatic("hydrostatic_2d_bi", "WCSPH-BI")
+
+
+def _dam_break(label, case_name, overrides, a):
+    """The surge front of a column a wide and 2a high against Martin & Moyce (1952) (the
+    tolerance) and Koshizuka & Oka (1996) (shown), for T = t sqrt(2g/a) <= 2.5."""
+    g = 9.81
+    sim = _sim(case_name, list(overrides) + [("time.end", 2.5 / math.sqrt(2 * g / a))])
+    ts, zs = [], []
+    end = 2.5 / math.sqrt(2 * g / a)
+    for k in range(101):
+        _advance(sim, end * k / 100)
+        x = sim.host(sim.fluid, "x")[0]
+        ts.append(sim.t * math.sqrt(2 * g / a))
+        zs.append((float(x[0].max()) + 0.5 * sim.dp) / a)
+    T, Z = np.array(ts), np.array(zs)
+    mT, mZ = ref.surge_front("martin_moyce_1952")
+    keep = mT <= 2.5
+    err = np.abs(np.interp(mT[keep], T, Z) / mZ[keep] - 1)
+    kT, kZ = ref.surge_front("koshizuka_oka_1996")
+    return Result(f"Dam break surge front, {label}", "largest |Z / Z_ref - 1| over the Martin & Moyce points, T <= 2.5",
+                  "Martin & Moyce (1952); Koshizuka & Oka (1996) shown", float(err.max()), 0.10,
+                  bool(err.max() < 0.10), f"{sim.fluid.n} fluid particles",
+                  [("SPH", T, Z, "sim"), ("Martin & Moyce 1952", mT, mZ, "data"), ("Koshizuka & Oka 1996", kT, kZ, "data")],
+                  ("T = t sqrt(2g/a)", "Z = z/a"))
+
+
+def dam_break_classic(quick):
+    return _dam_break("classic", "dam_break_2d", [("output.vtk", False)], 1.0)
+
+
+def dam_break_bi(quick):
+    """A column a = 0.25 m, 50 particles across, consistent boundary integrals with artificial
+    viscosity alpha = 0.1 (DualSPHysics' dam-break value) and the wall term x5."""
+    a = 0.25
+    case = {"dim": 2, "dp": a / 50, "fluid": [{"min": [0.0, 0.0], "max": [a, 2 * a]}],
+            "tank": {"min": [0.0, 0.0], "max": [4 * a, 3 * a]}, "time": {"end": 1.0},
+            "model": {"name": "bi", "BCType": "BIConsistent_numeric", "ViscousTerm": "ArtificialViscosity",
+                      "alpha": 0.1, "scaleBVTCoef": 5.0}, "output": {"vtk": False}}
+    return _dam_break("WCSPH-BI", case, [], a)
+
+
+#: (function, in the quick subset)
+CHECKS = [
+    (poiseuille, True),
+    (couette, True),
+    (taylor_green, True),
+    (hydrostatic_classic, True),
+    (hydrostatic_bi, True),
+    (dam_break_classic, False),
+    (dam_break_bi, False),
+    (convergence_poiseuille, False),
+    (convergence_taylor_green, False),
+]
+
+
+def run_all(output, quick=False, only=None, log=print):
+    """Run the validation set (the quick subset with ``quick``; the checks whose function
+    name contains ``only``), write ``report.md`` and the plots into ``output``; return the
+    results."""
+    out = Path(output)
+    out.mkdir(parents=True, exist_ok=True)
+    results = []
+    for fn, in_quick in CHECKS:
+        if (quick and not in_quick) or (only and only not in fn.__name__):
+            continue
+        t0 = time.perf_counter()
+        log(f"validate: {fn.__name__} ...")
+        r = fn(quick)
+        r.seconds = time.perf_counter() - t0
+        log(f"validate: {fn.__name__}: {'pass' if r.passed else 'FAIL'} ({r.measured:.4g}, "
+            f"tolerance {r.tolerance:g}) in {r.seconds:.0f} s")
+        results.append(r)
+    write_report(out, results, quick)
+    return results
+
+
+def write_report(out, results, quick):
+    from ..io.vtk import write_text
+
+    plots = _plots(out, results)
+    lines = ["# wcsph validation report", "",
+             f"{'Quick subset' if quick else 'Full set'}: {sum(r.passed for r in results)} of {len(results)} "
+             "checks pass.", "",
+             "| check | compared | reference | measured | tolerance | result | time |",
+             "|---|---|---|---|---|---|---|"]
+    for r in results:
+        limit = f"< {r.tolerance:g}" if "order" not in r.what else f">= {r.tolerance:g}"
+        lines.append(f"| {r.name} | {r.what} | {r.reference} | {r.measured:.4g} | {limit} | "
+                     f"{'pass' if r.passed else '**FAIL**'} | {r.seconds:.0f} s |")
+    for r, png in zip(results, plots):
+        lines += ["", f"## {r.name}", "", r.detail]
+        if png:
+            lines += ["", f"![{r.name}]({png})"]
+    write_text(out / "report.md", "\n".join(lines) + "\n")
+
+
+def _plots(out, results):
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return [None] * len(results)
+    from ..io.vtk import atomic
+
+    names = []
+    for k, r in enumerate(results):
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for label, x, y, kind in r.curves:
+            style = {"sim": dict(marker=".", ls="none", ms=3), "ref": dict(color="k", lw=1),
+                     "data": dict(marker="o", ls="none", mfc="none")}[kind]
+            ax.plot(x, y, label=label, **style)
+        if r.name.startswith("Convergence"):
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+        ax.set_xlabel(r.axes[0])
+        ax.set_ylabel(r.axes[1])
+        ax.set_title(r.name, fontsize=10)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        name = f"check_{k:02d}.png"
+        with atomic(out / name) as tmp:
+            fig.savefig(tmp, dpi=90, format="png")
+        plt.close(fig)
+        names.append(name)
+    return names

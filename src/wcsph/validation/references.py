@@ -1,0 +1,46 @@
+"""The references the validation set compares against: published measurements shipped in
+``data/`` (with their sources in ``data/README.md``) and analytic solutions."""
+import csv
+from pathlib import Path
+
+import numpy as np
+
+DATA = Path(__file__).parent / "data"
+
+
+def surge_front(name="martin_moyce_1952"):
+    """(T, Z) of a dam-break surge-front data set in ``data/`` (Martin & Moyce 1952 or
+    Koshizuka & Oka 1996), sorted by T."""
+    with open(DATA / f"{name}_surge_front.csv") as f:
+        rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
+    ref = np.array(sorted((float(r["T"]), float(r["Z"])) for r in rows))
+    return ref[:, 0], ref[:, 1]
+
+
+def poiseuille(y, t, L, F, nu, terms=100):
+    """Body-force driven plane Poiseuille flow between plates y = 0 and y = L started from
+    rest, the series solution of Morris, Fox & Zhu (1997), eq. 21:
+    u = F/(2 nu) y (L - y) - sum_n 4 F L^2/(nu pi^3 (2n+1)^3) sin(pi y (2n+1)/L)
+    exp(-(2n+1)^2 pi^2 nu t / L^2)."""
+    y = np.asarray(y, dtype=float)
+    u = F / (2 * nu) * y * (L - y)
+    for n in range(terms):
+        k = 2 * n + 1
+        u -= 4 * F * L**2 / (nu * np.pi**3 * k**3) * np.sin(np.pi * y * k / L) * np.exp(-k**2 * np.pi**2 * nu * t / L**2)
+    return u
+
+
+def couette(y, t, L, U, nu, terms=400):
+    """Plane Couette flow started by the plate y = L moving at U (the plate y = 0 at rest),
+    Morris, Fox & Zhu (1997), eq. 22:
+    u = U y/L + sum_n 2U/(n pi) (-1)^n sin(n pi y/L) exp(-nu n^2 pi^2 t/L^2)."""
+    y = np.asarray(y, dtype=float)
+    u = U * y / L
+    for n in range(1, terms):
+        u += 2 * U / (n * np.pi) * (-1) ** n * np.sin(n * np.pi * y / L) * np.exp(-nu * n**2 * np.pi**2 * t / L**2)
+    return u
+
+
+def taylor_green_decay_rate(re):
+    """d ln(E_k)/dt of the Taylor-Green vortex on the unit square (U = 1): -16 pi^2 / Re."""
+    return -16 * np.pi**2 / re
