@@ -1,16 +1,12 @@
-from pathlib import Path
-
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-VALIDATION = ROOT.parent / "shared" / "validation"
+from wcsph.validation.references import DATA
 
 
 @pytest.fixture
 def validation_dir():
-    if not VALIDATION.exists():
-        pytest.skip("shared/validation not found beside the checkout")
-    return VALIDATION
+    """The published reference data, shipped inside the package (no skip on a plain clone)."""
+    return DATA
 
 
 @pytest.fixture

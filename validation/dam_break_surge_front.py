@@ -11,8 +11,7 @@ from pathlib import Path
 import numpy as np
 
 import wcsph
-
-DATA = Path(__file__).resolve().parents[2] / "shared" / "validation"
+from wcsph.validation.references import DATA  # the published data, shipped with the package
 
 
 def read_reference(name):

@@ -31,13 +31,21 @@ SAFE_NAME = (lambda v: bool(re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.-]*", v)) and 
              "must be letters, digits, '_', '-' or '.' (it names the output directory runs/NAME)")
 BLOCK = {"min": ("vec", REQUIRED, None), "max": ("vec", REQUIRED, None)}
 #: initial velocity and pressure: numbers or formulas of x, y, z (``expressions``)
-FLUID_BLOCK = dict(BLOCK, velocity=("field", None, None), pressure=("formula", None, None))
+#: a fluid block is a box (min, max), a point ``file`` (CSV or VTK) or a closed ``surface``
+#: mesh to fill (``io.readers``)
+FLUID_BLOCK = {"min": ("vec", None, None), "max": ("vec", None, None), "file": ("str", "", None),
+               "surface": ("str", "", None), "velocity": ("field", None, None), "pressure": ("formula", None, None)}
 #: what every wall source (tank, obstacle, polygon) may add: a body name (its force and torque
 #: go to probes.csv) and a prescribed motion (``motion.MOTION``)
 BODY = {"name": ("str", "", None), "motion": (MOTION, None, None)}
 UNIT_OPEN = (lambda v: 0 <= v < 1, "must lie in [0, 1)")
 #: a 2D wall along a polyline; the fluid lies on the left of the direction of travel
 POLYGON = dict({"points": ("points", REQUIRED, None), "closed": ("bool", False, None)}, **BODY)
+#: walls from a file: a point ``file`` (boundary elements need the normals and sizes, wall
+#: particles only the points) or a closed surface ``mesh`` (STL, OBJ, VTK...); ``fluid_side``
+#: says whether the fluid is inside the mesh (a tank) or outside (a body)
+WALL_FILE = dict({"file": ("str", "", None), "mesh": ("str", "", None),
+                  "fluid_side": ("str", "outside", one_of("inside", "outside"))}, **BODY)
 #: pressure sensor at ``position``; water-level gauge along the vertical line from
 #: ``position`` up by ``length`` (0: to the top of the domain)
 PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, one_of("pressure", "level")),
@@ -70,6 +78,7 @@ SCHEMA = {
     "tank": (dict(BLOCK, open_top=("bool", True, None), **BODY), None, None),
     "obstacle": ([dict(BLOCK, **BODY)], [], None),
     "polygon": ([POLYGON], [], None),
+    "walls": ([WALL_FILE], [], None),
     "physics": (dict({
         "rho0": ("float", 1000.0, POS),
         "gravity": ("vec", None, None),
@@ -236,18 +245,29 @@ def validate(data, src="<case>"):
         _fail(src, "physics.kappa", "give kappa or speed_of_sound, not both (kappa = c0^2)")
     if ph["gravity"] is None:
         case["physics"]["gravity"] = [0.0] * (dim - 1) + [-9.81]
-    for kind in ("fluid", "obstacle"):
-        for k, b in enumerate(case[kind]):
-            _check_box(src, f"{kind}[{k}]", b)
+    for k, b in enumerate(case["fluid"]):
+        given = [name for name in ("min", "file", "surface") if b[name]]
+        if (b["min"] is None) != (b["max"] is None):
+            _fail(src, f"fluid[{k}]", "give both min and max, or neither")
+        if len(given) != 1:
+            _fail(src, f"fluid[{k}]", "give one of min and max (a box), file (points) or surface (a closed mesh "
+                  f"to fill); got {', '.join(given) or 'none'}")
+        if b["min"] is not None:
+            _check_box(src, f"fluid[{k}]", b)
+    for k, b in enumerate(case["obstacle"]):
+        _check_box(src, f"obstacle[{k}]", b)
+    for k, w in enumerate(case["walls"]):
+        if bool(w["file"]) == bool(w["mesh"]):
+            _fail(src, f"walls[{k}]", "give file (a point set) or mesh (a closed surface), one of them")
     if case["tank"] is not None:
         _check_box(src, "tank", case["tank"])
     if not case["fluid"]:
         _fail(src, "fluid", "no fluid block: give at least one [[fluid]] with min and max")
-    blocks = case["fluid"]
-    for a in range(len(blocks)):
-        for b in range(a + 1, len(blocks)):
-            lo = [max(p, q) for p, q in zip(blocks[a]["min"], blocks[b]["min"])]
-            hi = [min(p, q) for p, q in zip(blocks[a]["max"], blocks[b]["max"])]
+    blocks = [(k, b) for k, b in enumerate(case["fluid"]) if b["min"] is not None]
+    for i, (a, A) in enumerate(blocks):
+        for b, B in blocks[i + 1:]:
+            lo = [max(p, q) for p, q in zip(A["min"], B["min"])]
+            hi = [min(p, q) for p, q in zip(A["max"], B["max"])]
             if all(h - l > 1e-9 for l, h in zip(lo, hi)):
                 _fail(src, f"fluid[{b}]", f"overlaps fluid[{a}] (in {_num(lo)} .. {_num(hi)}); particles "
                       "placed twice start on top of each other")
@@ -283,6 +303,7 @@ def _wall_sources(case):
     out = [("tank", case["tank"])] if case["tank"] is not None else []
     out += [(f"obstacle[{k}]", b) for k, b in enumerate(case["obstacle"])]
     out += [(f"polygon[{k}]", b) for k, b in enumerate(case["polygon"])]
+    out += [(f"walls[{k}]", b) for k, b in enumerate(case["walls"])]
     return out
 
 

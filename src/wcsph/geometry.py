@@ -20,11 +20,13 @@ The last axis is vertical.
 """
 import math
 import os
+from pathlib import Path
 
 import numpy as np
 
 from .config import CaseError
 from .expressions import evaluate
+from .io.readers import GeometryError, face_elements, inside, read_points, read_surface, surface_distance
 from .kernels import SUPPORT
 
 
@@ -186,10 +188,71 @@ def boundary_elements(case, size):
         parts.append(box_elements(box, size, False))
     for poly in case["polygon"]:
         parts.append(polygon_elements(poly["points"], poly["closed"], size))
+    for k, w in enumerate(case["walls"]):
+        parts.append(_file_elements(case, k, w, size))
     if not parts:
         return np.zeros((dim, 0)), np.zeros((dim, 0)), np.zeros(0), np.zeros(0, dtype=np.int64)
     body = np.concatenate([np.full(p[0].shape[1], b, dtype=np.int64) for b, p in enumerate(parts)])
     return tuple(np.concatenate(p, axis=-1) for p in zip(*parts)) + (body,)
+
+
+def _path(case, name):
+    """A file named in a case, relative to the case file's directory."""
+    src = Path(case["_source"])
+    base = src.parent if src.suffix == ".toml" else Path.cwd()
+    return base / name
+
+
+def _read(case, key, fn, *args):
+    try:
+        return fn(*args)
+    except GeometryError as e:
+        raise CaseError(f"{case['_source']}: {key}: {e}") from None
+
+
+def _file_elements(case, k, w, size):
+    """Boundary elements of ``walls[k]``: a point file with normals and sizes, or the faces of a
+    closed mesh (``io.readers``)."""
+    key, dim = f"walls[{k}]", case["dim"]
+    if w["file"]:
+        pts = _read(case, key + ".file", read_points, _path(case, w["file"]), dim)
+        missing = [f for f in ("n", "elementSize") if f not in pts]
+        if missing:
+            raise CaseError(f"{case['_source']}: {key}.file: boundary elements need the point fields "
+                            f"{' and '.join(missing)} (normals out of the fluid and sizes); this file has "
+                            f"{', '.join(sorted(pts)) or 'only points'}")
+        return pts["x"], pts["n"], pts["elementSize"]
+    verts, faces = _read(case, key + ".mesh", read_surface, _path(case, w["mesh"]), dim)
+    return face_elements(verts, faces, size, w["fluid_side"] == "inside")
+
+
+def _file_particles(case, k, w, dp, layers):
+    """Wall particles of ``walls[k]``: the points of a point file, or the lattice points
+    within ``layers`` dp of a closed mesh on its wall side (inside a body, outside a tank)."""
+    key, dim = f"walls[{k}]", case["dim"]
+    if w["file"]:
+        return _read(case, key + ".file", read_points, _path(case, w["file"]), dim)["x"]
+    verts, faces = _read(case, key + ".mesh", read_surface, _path(case, w["mesh"]), dim)
+    t = layers * dp
+    pts = lattice(verts.min(axis=1) - t, verts.max(axis=1) + t, dp)
+    within = surface_distance(pts, verts, faces, dp) < t
+    pts = pts[:, within]
+    ins = inside(pts, verts, faces)
+    return pts[:, ~ins if w["fluid_side"] == "inside" else ins]
+
+
+def _file_fluid(case, k, block, dp):
+    """(x, v or None, p or None) of a fluid block given by a point file or a surface to fill
+    (lattice points inside it, at least dp/2 from it)."""
+    key, dim = f"fluid[{k}]", case["dim"]
+    if block["file"]:
+        pts = _read(case, key + ".file", read_points, _path(case, block["file"]), dim)
+        return pts["x"], pts.get("v"), pts.get("p")
+    verts, faces = _read(case, key + ".surface", read_surface, _path(case, block["surface"]), dim)
+    pts = lattice(verts.min(axis=1), verts.max(axis=1), dp)
+    pts = pts[:, inside(pts, verts, faces)]
+    pts = pts[:, surface_distance(pts, verts, faces, dp) > 0.5 * dp * (1 - 1e-6)]
+    return pts, None, None
 
 
 def wall_sources(case):
@@ -212,7 +275,7 @@ def estimate(case):
     wall layers (classic) or faces / element size (WCSPH-BI)."""
     dp, dim = case["dp"], case["dim"]
     n_fluid = sum(math.prod(max(0.0, (b - a) / dp) for a, b in zip(blk["min"], blk["max"]))
-                  for blk in case["fluid"])
+                  for blk in case["fluid"] if blk["min"] is not None)  # files are counted when read
     boxes = ([case["tank"]] if case["tank"] is not None else []) + list(case["obstacle"])
     n_wall = 0.0
     for box in boxes:
@@ -260,6 +323,8 @@ def build(case):
             parts.append(tank_particles(case["tank"], dp, layers, periodic_axes(case)))
         for box in case["obstacle"]:
             parts.append(obstacle_particles(box, dp, layers))
+        for k, w in enumerate(case["walls"]):
+            parts.append(_file_particles(case, k, w, dp, layers))
         wall_set = {"x": np.concatenate(parts, axis=1) if parts else np.zeros((dim, 0)),
                     "body": np.concatenate([np.full(p.shape[1], b, dtype=np.int64) for b, p in enumerate(parts)])
                     if parts else np.zeros(0, dtype=np.int64)}
@@ -267,6 +332,17 @@ def build(case):
 
     xs, vs, tops, ps = [], [], [], []
     for k, block in enumerate(case["fluid"]):
+        if block["min"] is None:  # a point file or a surface to fill
+            x, v_file, p_file = _file_fluid(case, k, block, dp)
+            if x.shape[1] == 0:
+                raise CaseError(f"{src}: fluid[{k}]: the surface encloses no lattice point of dp = {dp}")
+            xs.append(x)
+            vs.append(np.stack([evaluate(str(c), x) for c in block["velocity"]]) if block["velocity"] is not None
+                      else (v_file if v_file is not None else np.zeros_like(x)))
+            tops.append(np.full(x.shape[1], x[-1].max() + 0.5 * dp))
+            ps.append(evaluate(str(block["pressure"]), x) if block["pressure"] is not None
+                      else (p_file if p_file is not None else np.full(x.shape[1], np.nan)))
+            continue
         if case["tank"] is not None:
             t = case["tank"]
             top = math.inf if t["open_top"] else t["max"][-1]

@@ -14,7 +14,8 @@ Kinds (``motion.kind``):
 * ``sinusoidal``: d = A sin(2 pi f t + phi), theta = Theta sin(2 pi f t + phi) (``amplitude``
   A, ``angle_amplitude`` Theta, ``frequency`` f, ``phase`` phi);
 * ``table``: a CSV ``file`` with columns t, x, y[, z], theta (a header row allowed): d and
-  theta interpolated linearly, their rates from central differences of the table.
+  theta interpolated linearly, their rates the slopes of the segment t lies in (the exact
+  derivative of the interpolated motion); held at the last row after the table ends.
 """
 import math
 from pathlib import Path
@@ -74,7 +75,7 @@ class Motion:
             if np.any(np.diff(t) <= 0):
                 raise CaseError(f"{key}.file: {path}: the times must increase")
             self.table = data
-            self.rates = np.gradient(data[:, 1:], t, axis=0)
+            self.rates = np.diff(data[:, 1:], axis=0) / np.diff(t)[:, None]
 
     def state(self, t):
         """(d (dim,), theta, d' (dim,), omega) at time t."""
@@ -88,7 +89,10 @@ class Motion:
                     self.a * w * math.cos(arg), s["angle_amplitude"] * w * math.cos(arg))
         tab, t0 = self.table, self.table[:, 0]
         row = np.array([np.interp(t, t0, tab[:, k]) for k in range(1, tab.shape[1])])
-        rate = np.array([np.interp(t, t0, self.rates[:, k]) for k in range(self.rates.shape[1])])
+        if t < t0[0] or t > t0[-1]:
+            rate = np.zeros(tab.shape[1] - 1)
+        else:
+            rate = self.rates[min(max(int(np.searchsorted(t0, t, side="right")) - 1, 0), len(self.rates) - 1)]
         return row[: self.dim], float(row[-1]), rate[: self.dim], float(rate[-1])
 
     def rotation(self, theta):
