@@ -66,6 +66,36 @@ def test_couette_with_a_moving_plate_and_its_shear_force():
     assert np.all((x[0] >= 0) & (x[0] < 5e-4))  # the moving plate wraps round the seam
 
 
+def test_open_channel_keeps_the_poiseuille_profile(tmp_path):
+    """Inflow with the parabola, outflow at p = 0: after two transits of the channel the
+    downstream profile is the parabola within 2 % (measured 0.3-0.5 %), the pressure drop is
+    8 mu u_max L / H^2 within 5 %, particles are created and removed in equal numbers (within
+    a layer), and run.json counts them."""
+    from wcsph.validation import poiseuille_open
+
+    r = poiseuille_open(False)
+    assert r.passed, r.detail
+    s = wcsph.run("poiseuille_open_2d", output=tmp_path, progress=False,
+                  overrides=[("time.end", 0.3), ("output.vtk", False)])
+    ob = s["open_boundary"]
+    assert ob["created"] > 100 and abs(ob["created"] - ob["removed"]) <= 40
+    assert s["n_fluid"] == 3600 + ob["created"] - ob["removed"]
+
+
+def test_open_boundary_case_errors():
+    base = dict(BASE, domain={"min": [-0.5, -0.5], "max": [1.5, 1.5]})
+    bad = [({"kind": "inlet", "min": [-0.2, 0.0], "max": [0.0, 0.5], "normal": [1.0, 0.0]}, r"open_boundary\[0\]\.velocity"),
+           ({"kind": "inlet", "min": [-0.2, 0.0], "max": [0.0, 0.5], "normal": [1.0, 1.0], "velocity": [1.0, 0.0]},
+            r"open_boundary\[0\]\.normal"),
+           ({"kind": "outlet", "min": [1.0, 0.0], "max": [1.05, 0.5], "normal": [-1.0, 0.0]}, r"open_boundary\[0\]\.max"),
+           ({"kind": "sideways", "min": [1.0, 0.0], "max": [1.2, 0.5], "normal": [-1.0, 0.0]}, r"open_boundary\[0\]\.kind")]
+    for ob, key in bad:
+        with pytest.raises(CaseError, match=key):
+            validate(dict(base, open_boundary=[ob]))
+    with pytest.raises(CaseError, match="domain: open boundaries need the domain box"):
+        validate(dict(BASE, open_boundary=[bad[0][0] | {"velocity": [1.0, 0.0]}]))
+
+
 def test_taylor_green_decay_rate_coarse():
     """50 x 50 particles (the 100 x 100 check, within 2 %, is in the validation set): the
     decay rate of the kinetic energy within 3.5 % of -16 pi^2 / Re (measured 2.5 %)."""

@@ -13,6 +13,8 @@ from pathlib import Path
 
 from . import plugins
 from .motion import MOTION
+from .open_boundary import OPEN_BOUNDARY
+from .open_boundary import check as check_open_boundaries
 from .registry import NONNEG, POS, REQUIRED, one_of
 
 CASES_DIR = Path(__file__).parent / "cases"
@@ -79,6 +81,8 @@ SCHEMA = {
     "obstacle": ([dict(BLOCK, **BODY)], [], None),
     "polygon": ([POLYGON], [], None),
     "walls": ([WALL_FILE], [], None),
+    # inflow and outflow buffers (``open_boundary``)
+    "open_boundary": ([OPEN_BOUNDARY], [], None),
     "physics": (dict({
         "rho0": ("float", 1000.0, POS),
         "gravity": ("vec", None, None),
@@ -293,6 +297,10 @@ def validate(data, src="<case>"):
             if on and abs(cells - round(cells)) > 1e-6 * max(cells, 1):
                 _fail(src, "domain.periodic", f"the periodic length {length:g} along axis {a} is not a whole "
                       f"number of dp = {case['dp']:g} (the lattice would not join up across the seam)")
+    check_open_boundaries(src, case, _fail)
+    if case["open_boundary"] and (d is None or d["min"] is None):
+        _fail(src, "domain", "open boundaries need the domain box (domain.min and domain.max) that holds the "
+              "buffers; particles beyond it are removed")
     case["_source"] = src
     case["_warnings"] = warnings
     return case

@@ -44,10 +44,13 @@ def check(text, names=("x", "y", "z")):
     return tree
 
 
-def evaluate(text, x):
-    """The formula at the points ``x`` (dim, N), as an (N,) array."""
-    tree = check(text)
+def evaluate(text, x, t=None):
+    """The formula at the points ``x`` (dim, N) (and time ``t`` where the formula may use
+    it), as an (N,) array."""
+    tree = check(text, ("x", "y", "z") if t is None else ("x", "y", "z", "t"))
     env = dict(CONSTANTS, **FUNCTIONS)
+    if t is not None:
+        env["t"] = t
     for a, name in enumerate("xyz"[: x.shape[0]]):
         env[name] = x[a]
     with np.errstate(all="ignore"):

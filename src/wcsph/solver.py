@@ -17,6 +17,7 @@ from .io import probes, vtk
 from .kernels import SUPPORT, kernel_numpy, kernel_params
 from .models import get_model
 from .motion import Bodies
+from .open_boundary import OpenBoundaries
 from .particles import ParticleSet
 from .progress import Progress
 
@@ -89,6 +90,19 @@ class Simulation:
         self.h = h = geometry.smoothing_length(case)
         geometry.check_size(case)
         fluid0, wall0, lo, hi = geometry.build(case)
+        self.open = None
+        particle_kind = None
+        if case["open_boundary"]:  # the buffers' particles join the fluid set, kind > 0
+            self.open = OpenBoundaries(case, dp, SUPPORT * geometry.smoothing_length(case))
+            bx, bv, bp, bkind = self.open.initial_particles(geometry.lattice)
+            out = ~np.all((bx >= lo[:, None]) & (bx <= hi[:, None]), axis=0)
+            if out.any():
+                raise CaseError(f"{case['_source']}: open_boundary: {int(out.sum())} buffer particles lie outside "
+                                f"the domain {list(lo)} .. {list(hi)}")
+            particle_kind = np.concatenate([np.zeros(fluid0["x"].shape[1], dtype=np.int64), bkind])
+            fluid0 = {"x": np.concatenate([fluid0["x"], bx], axis=1), "v": np.concatenate([fluid0["v"], bv], axis=1),
+                      "top": np.concatenate([fluid0["top"], np.full(bx.shape[1], bx[-1].max() + 0.5 * dp)]),
+                      "p": np.concatenate([fluid0["p"], bp])}
         fluid_x, fluid_v = fluid0["x"], fluid0["v"]
         self.domain = (lo, hi)
         rc = SUPPORT * h
@@ -140,6 +154,8 @@ class Simulation:
         self.fluid["rho"] = be.to_device(rho.astype(dtype))
         self.fluid["m"] = be.to_device(np.full(n, self.mass, dtype=dtype))
         self.fluid["id"] = be.to_device(np.arange(n, dtype=np.int64))  # follows the particle
+        if particle_kind is not None:
+            self.fluid["kind"] = be.to_device(particle_kind)  # 0 fluid, 1 + k the buffer of open_boundary[k]
         self._placeholders = {"k": be.to_device(np.zeros((1, 1, 1), dtype=dtype)),
                               "w": be.to_device(np.zeros(1, dtype=dtype))}
         body = wall0.pop("body")
@@ -314,6 +330,8 @@ class Simulation:
         self.place_walls(self.t)
         self.dropped += be.sort(self.fluid, self.grid)
         self.P = self.params_for(dt)
+        if self.open is not None:
+            self.open.before(self)
         try:
             dt = self.integrator.step(self, self.P)
         except IntegrationError as e:
@@ -321,6 +339,8 @@ class Simulation:
         if dt != float(self.P.dt):
             self.P = self.params_for(dt)
         self.model.correct(self.fluid, self.walls, self.P, self.G, self.steps + 1)
+        if self.open is not None:  # buffers prescribed; particles enter, leave, are created
+            self.open.after(self, dt)
         be.wrap(self.fluid, self.grid)  # a particle that left through a periodic side re-enters
         self.t += dt
         self.steps += 1
@@ -352,7 +372,8 @@ class Simulation:
                 "case": {k: v for k, v in self.case.items() if not k.startswith("_")},
                 "fingerprint": case_fingerprint(self.case), "t": self.t, "steps": self.steps,
                 "evaluations": self.evaluations, "dropped": self.dropped, "vmax": self.vmax, "amax": self.amax,
-                "n": self.fluid.n, "integrator": self.integrator.carried_state(), "output": output_state}
+                "n": self.fluid.n, "integrator": self.integrator.carried_state(), "output": output_state,
+                "open_boundary": self.open.carried_state() if self.open is not None else None}
         arrays = {f"fluid.{k}": self.backend.to_host(self.fluid[k]) for k in self.fluid.per_particle()}
         with vtk.atomic(path) as tmp:
             with open(tmp, "wb") as f:
@@ -396,6 +417,8 @@ class Simulation:
         self.t, self.steps, self.evaluations = meta["t"], meta["steps"], meta["evaluations"]
         self.dropped, self.vmax, self.amax = meta["dropped"], meta["vmax"], meta["amax"]
         self.integrator.restore(meta["integrator"])
+        if self.open is not None:
+            self.open.restore(meta["open_boundary"])
         self.place_walls(self.t)
         self._resumed_output = meta["output"]
 
@@ -496,6 +519,8 @@ class Simulation:
             "compile_time_s": self.setup_time + (compile_time or 0.0), "io_time_s": io_time, "stepping_time_s": stepping,
             "particle_steps_per_s": self.fluid.n * timed_steps / stepping if stepping > 0 else 0.0,
         }
+        if self.open is not None:  # particles created at inlets, removed at outlets
+            summary["open_boundary"] = self.open.summary()
         if writer is not None:
             writer.close(summary)
         if status == "failed":
@@ -551,7 +576,10 @@ class Output:
         if self.oc["vtk"]:
             x, v, rho, p, ids = sim.host(sim.fluid, "x", "v", "rho", "p", "id")
             name = "fluid_failed.vtu" if failed else f"fluid_{self.count:04d}.vtu"
-            vtk.write_points(self.out / name, x, {"rho": rho, "p": p, "v": v, "id": ids})
+            fields = {"rho": rho, "p": p, "v": v, "id": ids}
+            if "kind" in sim.fluid.arrays:
+                fields["kind"] = sim.host(sim.fluid, "kind")[0]
+            vtk.write_points(self.out / name, x, fields)
             if not failed:
                 self.entries.append((sim.t, 0, name))
                 if sim.walls.n and sim.bodies.moving:  # a frame of the walls too

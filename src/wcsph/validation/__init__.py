@@ -87,6 +87,31 @@ def couette(quick, overrides=(), name="Couette, moving wall, WCSPH-BI"):
                           overrides)
 
 
+def poiseuille_open(quick, overrides=()):
+    """The open channel (inflow profile, outflow pressure): the velocity profile in the
+    downstream half against the inflow parabola, at t = 1, 2, 4 s (two transits)."""
+    sim = _sim("poiseuille_open_2d", overrides)
+    errors, curves = [], []
+    for t in (1.0, 2.0, 4.0):
+        _advance(sim, t)
+        x, v, kind, p = (a.astype(float) for a in sim.host(sim.fluid, "x", "v", "kind", "p"))
+        down = (kind == 0) & (x[0] > 1.0) & (x[0] < 2.0)
+        exact = 4 * x[1] * (1 - x[1])
+        errors.append(math.sqrt(float(np.mean((v[0][down] - exact[down]) ** 2))))
+        order = np.argsort(x[1][down])
+        curves.append((f"t = {t:g} s", v[0][down][order], x[1][down][order], "sim"))
+    yy = np.linspace(0, 1, 100)
+    curves.append(("inflow 4 y (1 - y)", 4 * yy * (1 - yy), yy, "ref"))
+    inlet = (kind == 0) & (x[0] < 0.1)
+    worst = max(errors)
+    return Result("Poiseuille, open inlet and outlet, WCSPH-BI",
+                  "L2 error of u_x / u_max, 1 < x < 2 m, largest over t = 1, 2, 4 s",
+                  "the inflow profile (fully developed Poiseuille flow)", worst, 0.02, worst < 0.02,
+                  "errors " + ", ".join(f"{e:.2%}" for e in errors) + f"; pressure near the inlet "
+                  f"{np.mean(p[inlet]):.3f} Pa (8 mu u_max L / H^2 = 1.6 Pa); particles created "
+                  f"{sim.open.created}, removed {sim.open.removed}", curves, ("u_x [m/s]", "y [m]"))
+
+
 def _tg_rate(dp, end=1.0):
     sim = _sim("taylor_green_2d", [("dp", dp), ("time.end", end)])
     ts, ks = [], []
@@ -201,6 +226,7 @@ def dam_break_bi(quick):
 CHECKS = [
     (poiseuille, True),
     (couette, True),
+    (poiseuille_open, True),
     (taylor_green, True),
     (hydrostatic_classic, True),
     (hydrostatic_bi, True),
