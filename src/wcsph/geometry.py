@@ -135,16 +135,20 @@ def _tiles(lo, hi, size):
     return np.stack([m.ravel() for m in mesh]), float(np.prod(widths))
 
 
-def box_elements(box, size, fluid_inside, skip_top=False, periodic=(False, False, False)):
+def box_elements(box, size, fluid_inside, skip_top=False, periodic=(False, False, False), seams=None):
     """Boundary elements on the faces of ``box``: its inside is fluid (a tank) or solid (an
-    obstacle); no faces across a periodic axis. Returns x (dim, N), n (dim, N), S (N,)."""
+    obstacle). No faces across a periodic axis: none at all for a tank, and for an obstacle
+    none that lie on the periodic box's sides (``seams``: its (lo, hi)), where the obstacle
+    continues through the seam. Returns x (dim, N), n (dim, N), S (N,)."""
     lo = np.asarray(box["min"], dtype=float)
     hi = np.asarray(box["max"], dtype=float)
     dim = lo.size
     xs, ns, ss = [], [], []
     for a in range(dim):
         for side, sign in ((lo, -1.0), (hi, 1.0)):
-            if (skip_top and a == dim - 1 and sign > 0) or periodic[a]:
+            if skip_top and a == dim - 1 and sign > 0:
+                continue
+            if periodic[a] and (seams is None or any(abs(side[a] - c[a]) < 1e-9 * size for c in seams)):
                 continue
             f_lo, f_hi = lo.copy(), hi.copy()
             f_lo[a] = f_hi[a] = side[a]
@@ -184,8 +188,9 @@ def boundary_elements(case, size):
     parts = []
     if case["tank"] is not None:
         parts.append(box_elements(case["tank"], size, True, case["tank"]["open_top"], periodic_axes(case)))
+    seams = periodic_box(case) if any(periodic_axes(case)) else None
     for box in case["obstacle"]:
-        parts.append(box_elements(box, size, False))
+        parts.append(box_elements(box, size, False, periodic=periodic_axes(case), seams=seams))
     for poly in case["polygon"]:
         parts.append(polygon_elements(poly["points"], poly["closed"], size))
     for k, w in enumerate(case["walls"]):

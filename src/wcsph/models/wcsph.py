@@ -31,7 +31,8 @@ from ..physics import Correction, Ctx, compose
 from ..physics.correction import (make_cspm_boundary, make_cspm_matrix, make_cspm_store, make_shepard_density,
                                  make_shepard_density_store)
 from ..physics.density import make_akinci_volume
-from ..physics.renormalization import make_boundary_interpolation, make_boundary_store, make_shepard
+from ..physics.renormalization import (make_boundary_interpolation, make_boundary_store, make_noslip_velocity,
+                                      make_shepard)
 from ..physics.viscosity import kinematic_viscosity
 from ..physics.wall_corrections import make_init as make_wall_init
 from ..physics.wall_corrections import make_store as make_wall_store
@@ -60,6 +61,8 @@ ElementView = namedtuple("ElementView", "x v n elementSize p rho cell start")
 #: boundary particles as the classic terms see them (Psi only), and with V = Psi/rho0, rho0
 ParticleWallView = namedtuple("ParticleWallView", "x v psi cell start")
 ParticleWallViewFull = namedtuple("ParticleWallViewFull", "x v psi vol rho cell start")
+#: boundary particles as the no-slip velocity pass writes them
+NoSlipWallView = namedtuple("NoSlipWallView", "x v v_ext cell start")
 #: fields a view may lack in a case, by number of array dimensions (a stand-in is passed)
 _PLACEHOLDER_NDIM = {"drhodt": 1, "shepard": 1, "L": 2, "corr": 2, "rho_corr": 1, "n": 2, "elementSize": 1,
                      "psi": 1, "vol": 1, "p": 1, "rho": 1, "pr": 1}
@@ -160,6 +163,10 @@ class WCSPH:
             self.density_pass = mk(dim, dtype, s["init_scalar"], fluid_term, s["store_density"], pair2=wall_term)
         if self.boundary == "particles":
             self.volume_pass = mk(dim, dtype, s["init_scalar"], make_akinci_volume(ctx), _store_psi(ctx))
+        self.noslip_pass = None
+        if self.boundary == "particles" and m["wall_velocity"] == "adami":
+            init_n, pair_n, store_n = make_noslip_velocity(ctx)
+            self.noslip_pass = mk(dim, dtype, init_n, pair_n, store_n)
         self.boundary_pass = None
         if self.consistent:
             init_b, store_b = make_boundary_store(ctx)
@@ -245,7 +252,8 @@ class WCSPH:
 
     def wall_fields(self):
         if self.boundary == "particles":
-            return [("psi", "scalar"), ("vol", "scalar"), ("rho", "scalar")]
+            extra = [("v_ext", "vector")] if self.noslip_pass is not None else []
+            return [("psi", "scalar"), ("vol", "scalar"), ("rho", "scalar")] + extra
         return [("p", "scalar"), ("rho", "scalar")]
 
     def particle_mass(self, dp, h, rho0, kernel_w):
@@ -327,6 +335,9 @@ class WCSPH:
             self.initialize_map(f, P)
         else:
             self.density_pass(f, f, w, P, G)
+        if self.noslip_pass is not None and walls.n:  # the walls' terms read the no-slip velocity
+            self.noslip_pass(self.view(walls, NoSlipWallView), f, f, P, G)
+            w = w._replace(v=walls["v_ext"])
         if self.boundary_pass is not None and walls.n:
             self.boundary_pass(w, f, f, P, G)
         if self.cspm_pass is not None:

@@ -55,3 +55,30 @@ def make_boundary_store(ctx):
             I.rho[i] = P.rho0
 
     return init, store
+
+
+def make_noslip_velocity(ctx):
+    """The no-slip wall velocity of Adami, Hu & Adams (2012), eq. 22-23, for wall particle i
+    (set I: the walls) from its fluid neighbours j: v_ext,i = 2 v_w,i - sum_j v_j W_ij V_j /
+    sum_j W_ij V_j (the wall's own velocity where no fluid is near). The wall terms then read
+    v_ext as v_b, which puts the no-slip condition on the wall surface rather than at the
+    wall particles' depth. Returns (init, pair, store); the store writes ``v_ext``."""
+    w, zero, dim = ctx.w, ctx.zero, ctx.dim
+
+    @register_jitable
+    def init(i, I, P):
+        return (zero, zero, zero, zero)
+
+    @register_jitable
+    def pair(i, j, dx, dy, dz, r, I, J, P, acc):
+        wv = w(r, P) * J.vol[j]
+        vz = J.v[2, j] * wv if dim == 3 else zero
+        return (acc[0] + wv, acc[1] + J.v[0, j] * wv, acc[2] + J.v[1, j] * wv, acc[3] + vz)
+
+    @register_jitable
+    def store(i, I, P, acc):
+        s = acc[0]
+        for d in range(dim):
+            I.v_ext[d, i] = I.v[d, i] + I.v[d, i] - acc[1 + d] / s if s > zero else I.v[d, i]
+
+    return init, pair, store

@@ -41,7 +41,10 @@ add("walls", Choice(
     params=(Param("wall_layers", 0, "layers of wall particles; 0: the kernel support (lattice volume) or 1 "
                   "(akinci volume)", kind="int", check=NONNEG),
             Param("wall_volume", "lattice", "'lattice' (Psi = the fluid particle mass) or 'akinci' (Psi = rho0 "
-                  "/ sum_l W_kl, eq. 5)", kind="str", check=one_of("lattice", "akinci"))),
+                  "/ sum_l W_kl, eq. 5)", kind="str", check=one_of("lattice", "akinci")),
+            Param("wall_velocity", "prescribed", "the velocity the wall terms read: 'prescribed' (the wall's "
+                  "own) or 'adami' (no-slip: 2 v_w minus the fluid velocity interpolated at the wall "
+                  "particle, Adami, Hu & Adams 2012)", kind="str", check=one_of("prescribed", "adami"))),
     walls=("particles",), boundary="particles"))
 add("walls", Choice(
     "BIConservative_numeric", "WCSPH-BI spec, conservative boundary integrals",

@@ -112,6 +112,21 @@ def poiseuille_open(quick, overrides=()):
                   f"{sim.open.created}, removed {sim.open.removed}", curves, ("u_x [m/s]", "y [m]"))
 
 
+#: the classic model on the same channels: Akinci walls with the no-slip velocity of Adami et
+#: al. (2012), density summation, Tait EOS, Morris viscosity, no XSPH
+CLASSIC = [("model.name", "classic"), ("model.BCType", "AkinciBoundaryParticles"), ("model.xsph", "None"),
+           ("model.DiffusiveTerm", "None"), ("model.EOS", "TaitEquationOfState"), ("model.density", "summation"),
+           ("model.wall_velocity", "adami")]
+
+
+def poiseuille_classic(quick):
+    return poiseuille(quick, CLASSIC, "Poiseuille, periodic, classic (Adami no-slip walls)")
+
+
+def couette_classic(quick):
+    return couette(quick, CLASSIC, "Couette, moving wall, classic (Adami no-slip walls)")
+
+
 def _tg_rate(dp, end=1.0):
     sim = _sim("taylor_green_2d", [("dp", dp), ("time.end", end)])
     ts, ks = [], []
@@ -226,6 +241,8 @@ def dam_break_bi(quick):
 CHECKS = [
     (poiseuille, True),
     (couette, True),
+    (poiseuille_classic, True),
+    (couette_classic, True),
     (poiseuille_open, True),
     (taylor_green, True),
     (hydrostatic_classic, True),
