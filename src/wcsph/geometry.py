@@ -360,7 +360,7 @@ def build(case):
         if x.shape[1] == 0:
             raise CaseError(f"{src}: fluid[{k}]: block is thinner than dp = {dp}, it holds no particle")
         for box in case["obstacle"]:  # obstacles displace the fluid they overlap
-            x = x[:, ~_inside(x, np.asarray(box["min"]) - 0.5 * dp, np.asarray(box["max"]) + 0.5 * dp)]
+            x = x[:, ~_inside(x, np.asarray(box["min"]) - 0.5 * dp, np.asarray(box["max"]) + 0.5 * dp, 1e-6 * dp)]
         xs.append(x)
         vs.append(np.stack([evaluate(str(c), x) for c in (block["velocity"] or [0.0] * dim)]))
         tops.append(np.full(x.shape[1], block["max"][-1]))

@@ -44,3 +44,11 @@ def couette(y, t, L, U, nu, terms=400):
 def taylor_green_decay_rate(re):
     """d ln(E_k)/dt of the Taylor-Green vortex on the unit square (U = 1): -16 pi^2 / Re."""
     return -16 * np.pi**2 / re
+
+
+def taylor_green_velocity(x, t, re):
+    """The Taylor-Green velocity (2, N) at points x on the unit square (U = 1):
+    u = -e^{bt} cos(2 pi x) sin(2 pi y), v = e^{bt} sin(2 pi x) cos(2 pi y), b = -8 pi^2/Re."""
+    e = np.exp(-8 * np.pi**2 / re * t)
+    return np.stack([-e * np.cos(2 * np.pi * x[0]) * np.sin(2 * np.pi * x[1]),
+                     e * np.sin(2 * np.pi * x[0]) * np.cos(2 * np.pi * x[1])])
