@@ -228,7 +228,7 @@ def _dam_break(label, case_name, overrides, a):
     keep = mT <= 2.5
     err = np.abs(np.interp(mT[keep], T, Z) / mZ[keep] - 1)
     kT, kZ = ref.surge_front("koshizuka_oka_1996")
-    return Result(f"Dam break surge front, {label}", "largest |Z / Z_ref - 1| over the Martin & Moyce points, T <= 2.5",
+    return Result(f"Dam break surge front, {label}", "largest abs(Z / Z_ref - 1) over the Martin & Moyce points, T <= 2.5",
                   "Martin & Moyce (1952); Koshizuka & Oka (1996) shown", float(err.max()), 0.10,
                   bool(err.max() < 0.10), f"{sim.fluid.n} fluid particles",
                   [("SPH", T, Z, "sim"), ("Martin & Moyce 1952", mT, mZ, "data"), ("Koshizuka & Oka 1996", kT, kZ, "data")],
