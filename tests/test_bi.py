@@ -11,8 +11,10 @@ from wcsph import geometry
 from wcsph.config import CaseError, load, validate
 from wcsph.kernels import kernel_numpy
 
-SCHEMES = [(bc, visc) for bc in ("BIConservative_numeric", "BIConsistent_numeric")
-           for visc in ("None", "PhysicalViscosity_MGVT")]
+# the inviscid pair in the default suite, the viscous pair behind the validation marker (the
+# default suite must stay within ten minutes on a cold two-core machine)
+SCHEMES = [pytest.param(bc, visc, marks=[pytest.mark.validation] if visc != "None" else [])
+           for bc in ("BIConservative_numeric", "BIConsistent_numeric") for visc in ("None", "PhysicalViscosity_MGVT")]
 
 
 # ------------------------------------------------------------------ boundary elements

@@ -28,19 +28,31 @@ print(json.dumps({"n": [c[4], g[4]], "steps": [c[5], g[5]],
 """
 
 
+#: simulator cases run with ``-m validation`` only: 10-35 s each cold, and the default suite
+#: must stay within ten minutes on a cold two-core machine
+SLOW = {"bi-2d-rk45", "classic-2d-verlet", "classic-2d-corrections", "bi-2d-open"}
+
+
+CASES = [
+    ("classic-2d", "dam_break_2d", 0.1, {}), ("classic-3d", "dam_break_3d", 0.06, {}),
+    ("bi-2d", "dam_break_2d_bi", 0.05, {}), ("bi-3d", "dam_break_3d_bi", 0.06, {}),
+    ("bi-2d-midpoint", "dam_break_2d_bi", 0.05, {"time.integrator": "midpoint", "time.midpointMaxInterations": 4}),
+    ("bi-2d-rk45", "dam_break_2d_bi", 0.05, {"time.integrator": "rk45"}),
+    ("classic-2d-verlet", "dam_break_2d", 0.1, {"time.integrator": "verlet"}),
+    ("bi-2d-corrections", "dam_break_2d_bi", 0.05, {
+        "model.kernel_correction": "CSPM", "model.collision": "DPC", "model.shifting": "DeltaPlus",
+        "model.xsph": "position", "model.pressure": "Monaghan1992ArtificialViscosity"}),
+    ("classic-2d-corrections", "dam_break_2d", 0.1, {
+        "model.kernel_correction": "CSPM", "model.collision": "DPC", "model.shifting": "Lind",
+        "model.density": "continuity", "model.DiffusiveTerm": "MolteniDiffusiveTerm", "model.cspm_density_interval": 2}),
+    ("bi-2d-periodic-moving", "couette_2d", 5e-5, {"time.dt": 1e-3}),
+    ("bi-2d-open", "poiseuille_open_2d", 0.05, {"time.dt": 0.004, "time.max_steps": 8}),
+]
+
+
 @pytest.mark.parametrize("name,dp,extra", [
-    ("dam_break_2d", 0.1, {}), ("dam_break_3d", 0.06, {}), ("dam_break_2d_bi", 0.05, {}), ("dam_break_3d_bi", 0.06, {}),
-    ("dam_break_2d_bi", 0.05, {"time.integrator": "midpoint", "time.midpointMaxInterations": 4}),
-    ("dam_break_2d_bi", 0.05, {"time.integrator": "rk45"}), ("dam_break_2d", 0.1, {"time.integrator": "verlet"}),
-    ("dam_break_2d_bi", 0.05, {"model.kernel_correction": "CSPM", "model.collision": "DPC", "model.shifting": "DeltaPlus",
-                               "model.xsph": "position", "model.pressure": "Monaghan1992ArtificialViscosity"}),
-    ("dam_break_2d", 0.1, {"model.kernel_correction": "CSPM", "model.collision": "DPC", "model.shifting": "Lind",
-                           "model.density": "continuity", "model.DiffusiveTerm": "MolteniDiffusiveTerm",
-                           "model.cspm_density_interval": 2}),
-    ("couette_2d", 5e-5, {"time.dt": 1e-3}),
-    ("poiseuille_open_2d", 0.05, {"time.dt": 0.004, "time.max_steps": 8})],
-    ids=["classic-2d", "classic-3d", "bi-2d", "bi-3d", "bi-2d-midpoint", "bi-2d-rk45", "classic-2d-verlet",
-         "bi-2d-corrections", "classic-2d-corrections", "bi-2d-periodic-moving", "bi-2d-open"])
+    pytest.param(name, dp, extra, id=cid, marks=[pytest.mark.validation] if cid in SLOW else [])
+    for cid, name, dp, extra in CASES])
 def test_cuda_kernels_match_cpu_in_simulator(name, dp, extra):
     """Classic and WCSPH-BI (consistent scheme: boundary pass, interaction, wall corrections,
     symplectic Verlet), 2D and 3D; the implicit midpoint (with its residual reduction), RK45

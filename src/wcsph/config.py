@@ -297,7 +297,7 @@ def validate(data, src="<case>"):
             if on and abs(cells - round(cells)) > 1e-6 * max(cells, 1):
                 _fail(src, "domain.periodic", f"the periodic length {length:g} along axis {a} is not a whole "
                       f"number of dp = {case['dp']:g} (the lattice would not join up across the seam)")
-    check_open_boundaries(src, case, _fail)
+    warnings = warnings + check_open_boundaries(src, case, _fail)
     if case["open_boundary"] and (d is None or d["min"] is None):
         _fail(src, "domain", "open boundaries need the domain box (domain.min and domain.max) that holds the "
               "buffers; particles beyond it are removed")

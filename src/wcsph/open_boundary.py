@@ -47,8 +47,12 @@ ExtrapFluid = namedtuple("ExtrapFluid", "x v rho m kind cell start")
 
 
 def check(src, case, fail):
-    """Case errors of the ``open_boundary`` tables (``fail(src, key, message)``)."""
+    """Case errors of the ``open_boundary`` tables (``fail(src, key, message)``); returns
+    warnings (a buffer shallower than the kernel support)."""
     dim, dp = case["dim"], case["dp"]
+    m = case["model"]
+    support = 2.0 * (m["h"] if m["h"] > 0 else m["smoothing_ratio"] * dp)
+    warnings = []
     for k, ob in enumerate(case["open_boundary"]):
         key = f"open_boundary[{k}]"
         for name in ("kind", "min", "max", "normal"):
@@ -61,6 +65,9 @@ def check(src, case, fail):
         a = int(np.nonzero(n)[0][0])
         if ob["max"][a] - ob["min"][a] < dp * (1 - 1e-9):
             fail(src, f"{key}.max", "the buffer is thinner than dp along its normal")
+        if ob["max"][a] - ob["min"][a] < support * (1 - 1e-9):
+            warnings.append(f"{key}: the buffer is {ob['max'][a] - ob['min'][a]:g} m deep, less than the kernel "
+                            f"support {support:g} m: fluid near it misses neighbours")
         if ob["kind"] == "inlet" and ob["velocity"] is None:
             fail(src, f"{key}.velocity", "an inlet needs its velocity (numbers or formulas of x, y, z, t)")
         for name in ("velocity",):
@@ -68,6 +75,7 @@ def check(src, case, fail):
                 _check_formula(src, f"{key}.{name}", c, fail)
         if ob["pressure"] is not None:
             _check_formula(src, f"{key}.pressure", ob["pressure"], fail)
+    return warnings
 
 
 def _check_formula(src, key, text, fail):
