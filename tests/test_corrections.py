@@ -29,7 +29,8 @@ def _set(sim, name, values_by_id):
 
 
 # ------------------------------------------------------------------------------ CSPM
-@pytest.mark.parametrize("correction,dim", [("CSPM", 2), ("None", 2), ("CSPM", 3)])
+@pytest.mark.parametrize("correction,dim", [("CSPM", 2), ("None", 2),
+                                            pytest.param("CSPM", 3, marks=pytest.mark.validation)])
 def test_cspm_gradient_and_divergence_of_linear_fields(correction, dim):
     """On a jittered block with free surfaces all round (no walls), a linear pressure field
     (through rho of the linearized EOS) and a linear velocity field: with CSPM (the difference
