@@ -339,3 +339,26 @@ def test_periodic_poiseuille_in_3d():
     assert err < 0.03
     assert np.abs(v[1:]).max() < 1e-3 * np.abs(v[0]).max()
     assert sim.dropped == 0 and np.all((x[:2] >= 0) & (x[:2] < L))
+
+
+def test_moving_square_is_pushed_back_by_the_fluid(tmp_path):
+    """The square of ``moving_square_2d`` driven by its motion table (coarse, 0.5 s, no
+    shifting: the loops of the open channel): its walls are where the table puts them, move
+    at the table's rate, and the fluid's force on it opposes the acceleration (drag along -x,
+    the side force below 5 % of it); probes.csv has its columns."""
+    over = [("dp", 0.1), ("model.shifting", "None"), ("time.end", 0.5), ("output.vtk", False),
+            ("output.probe_interval", 0.1)]
+    sim = wcsph.Simulation(load("moving_square_2d", over))
+    s = sim.run(output=tmp_path, progress=False)
+    assert s["status"] == "completed" and s["dropped"] == 0
+    x, v, body = sim.host(sim.walls, "x", "v", "body")
+    sq = body == 1
+    shift = 0.5 / 2 - np.sin(np.pi * 0.5) / (2 * np.pi)  # x(t) = U (t/2 - sin(pi t)/(2 pi)), U = 1
+    assert x[0][sq].min() == pytest.approx(1.0 + shift, abs=1e-4)
+    assert np.allclose(v[0][sq], 0.5, atol=0.02) and np.allclose(v[1][sq], 0.0)
+    import csv
+
+    rows = list(csv.DictReader(open(tmp_path / "probes.csv")))
+    fx = np.array([float(r["square_fx"]) for r in rows[1:]])
+    fy = np.array([float(r["square_fy"]) for r in rows[1:]])
+    assert np.all(fx < 0) and np.all(np.abs(fy) < 0.05 * np.abs(fx))

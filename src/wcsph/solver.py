@@ -256,7 +256,8 @@ class Simulation:
 
     def place_walls(self, t):
         """Moving walls to their position, normal and velocity at time t, then wrapped and
-        sorted (``motion.Bodies``); nothing when every wall is fixed."""
+        sorted (``motion.Bodies``); nothing when every wall is fixed. Called at the end of
+        each step: a step's stages see the walls where they are at its start."""
         if not self.bodies.moving:
             return
         be, w = self.backend, self.walls
@@ -327,7 +328,6 @@ class Simulation:
         integrator's stages, then the model's wall corrections. An adaptive integrator may
         take a smaller step than ``dt``; returns the step taken."""
         be = self.backend
-        self.place_walls(self.t)
         self.dropped += be.sort(self.fluid, self.grid)
         self.P = self.params_for(dt)
         if self.open is not None:
@@ -344,6 +344,7 @@ class Simulation:
         be.wrap(self.fluid, self.grid)  # a particle that left through a periodic side re-enters
         self.t += dt
         self.steps += 1
+        self.place_walls(self.t)  # moving walls where they are at the new time (output, next step)
         if self.fluid.n == 0:
             raise SimulationError(f"every fluid particle has left the domain by t = {self.t:.6g} s "
                                   f"(step {self.steps}); enlarge [domain] or close the tank")
