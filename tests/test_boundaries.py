@@ -159,6 +159,9 @@ def test_validate_command_writes_a_report(tmp_path):
     text = (out / "report.md").read_text()
     assert "| Couette, moving wall, WCSPH-BI |" in text and "pass" in text
     assert (out / "check_00.png").stat().st_size > 1000
+    r = subprocess.run([sys.executable, "-m", "wcsph.cli", "validate", "--only", "nosuch", "-o", str(out)],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 2 and "no check's name contains it" in r.stderr and "Traceback" not in r.stderr
 
 
 # ------------------------------------------------------------------ moving walls

@@ -153,6 +153,13 @@ def _main(argv):
     if args.command == "validate":
         from .validation import run_all
 
+        from .validation import CHECKS
+
+        names = [fn.__name__ for fn, _ in CHECKS]
+        if args.only and not any(args.only in n for n in names):
+            print(f"wcsph: error: --only {args.only}: no check's name contains it; checks: {', '.join(names)}",
+                  file=sys.stderr)
+            return 2
         try:
             _check_output(args.output, "--output")
         except CaseError as e:
