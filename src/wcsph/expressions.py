@@ -2,7 +2,7 @@
 "sin(2*pi*x)*cos(2*pi*y)"]`` or ``pressure = "..."`` in a ``[[fluid]]`` block, as PySPH users
 write them in Python and DualSPHysics users in its initial-condition options. Only arithmetic,
 numbers, the coordinates x, y, z, the constants pi and e and the functions below are allowed:
-the text is parsed and checked, never executed as code."""
+the text is parsed and checked before it is evaluated, so nothing else can run."""
 import ast
 import math
 
