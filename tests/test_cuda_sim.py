@@ -30,7 +30,8 @@ print(json.dumps({"n": [c[4], g[4]], "steps": [c[5], g[5]],
 
 #: simulator cases run with ``-m validation`` only: 10-35 s each cold, and the default suite
 #: must stay within ten minutes on a cold two-core machine
-SLOW = {"classic-3d", "bi-2d-midpoint", "bi-2d-rk45", "classic-2d-verlet", "classic-2d-corrections", "bi-2d-open"}
+SLOW = {"classic-3d", "bi-2d-midpoint", "bi-2d-rk45", "classic-2d-verlet", "bi-2d-corrections",
+        "classic-2d-corrections", "bi-2d-open"}
 
 
 CASES = [
