@@ -50,6 +50,16 @@ def make_periodic_walk(dim, visit1, visit2, use2, zero, periodic, inline="never"
     pz = periodic[2] if len(periodic) > 2 else False
     ftype = type(zero)
 
+    @register_jitable(inline="always")
+    def image(r, pos, k, n, length):
+        """Cell index r along a periodic axis of n real cells (k..k+n-1) and i's coordinate
+        there: a ghost cell becomes its image, the coordinate shifted by the length."""
+        if r < k:
+            return r + n, pos + ftype(length)
+        if r >= k + n:
+            return r - n, pos - ftype(length)
+        return r, pos
+
     @register_jitable(inline=inline)
     def walk(i, xi, yi, zi, c, I, J1, J2, P, G, acc):
         k = G.k
@@ -58,36 +68,17 @@ def make_periodic_walk(dim, visit1, visit2, use2, zero, periodic, inline="never"
         cy = (c // G.nx) % G.ny
         cz = c // G.sz
         for oz in range(-kz, kz + 1):
-            rz = cz + oz
-            zs = zi
+            rz, zs = cz + oz, zi
             if pz:
-                if rz < k:
-                    rz += G.rz
-                    zs = zi + ftype(G.Lz)
-                elif rz >= k + G.rz:
-                    rz -= G.rz
-                    zs = zi - ftype(G.Lz)
+                rz, zs = image(rz, zi, k, G.rz, G.Lz)
             for oy in range(-k, k + 1):
-                ry = cy + oy
-                ys = yi
+                ry, ys = cy + oy, yi
                 if py:
-                    if ry < k:
-                        ry += G.ry
-                        ys = yi + ftype(G.Ly)
-                    elif ry >= k + G.ry:
-                        ry -= G.ry
-                        ys = yi - ftype(G.Ly)
+                    ry, ys = image(ry, yi, k, G.ry, G.Ly)
                 row = ry * G.sy + rz * G.sz
-                if px and (cx < 2 * k or cx + k >= k + G.rx):
+                if px and (cx < 2 * k or cx >= G.rx):  # the run of 2k + 1 cells crosses a side
                     for ox in range(-k, k + 1):
-                        rx = cx + ox
-                        xs = xi
-                        if rx < k:
-                            rx += G.rx
-                            xs = xi + ftype(G.Lx)
-                        elif rx >= k + G.rx:
-                            rx -= G.rx
-                            xs = xi - ftype(G.Lx)
+                        rx, xs = image(cx + ox, xi, k, G.rx, G.Lx)
                         cc = row + rx
                         acc = visit1(i, xs, ys, zs, I, J1, J1.start[cc], J1.start[cc + 1], P, acc)
                         if use2:
