@@ -114,6 +114,14 @@ SCHEMA = {
         "max_steps": ("int", 0, NONNEG),
     }, REQUIRED, None),
     "probes": ([PROBE], [], None),
+    # a run on several MPI ranks (``mpiexec -n N wcsph run``): slabs along ``axis`` (auto: the
+    # longest), cuts moved when the particles per rank differ from the mean by more than
+    # ``balance_threshold``, checked every ``balance_interval`` steps (0: never)
+    "parallel": ({
+        "axis": ("str", "auto", one_of("auto", "x", "y", "z")),
+        "balance_threshold": ("float", 0.1, POS),
+        "balance_interval": ("int", 20, NONNEG),
+    }, {}, None),
     "output": ({
         "interval": ("float", 0.0, NONNEG),
         "checkpoint_interval": ("float", 0.0, NONNEG),

@@ -4,7 +4,9 @@ An integrator sees a particle set through ``StateView``: the state (x, v and, fo
 a continuity equation, rho), the derivatives the model last wrote (dvdt, drhodt), p and m
 (for the energy residual), and its own arrays (x_n v_n rho_n: the state at the start of the step; dv_t drho_t: the
 implicit midpoint's iterated derivatives; k: Runge-Kutta stages; w: per-stage
-coefficients). It calls back ``sim.evaluate(P)`` for the derivatives at the current state.
+coefficients). It calls back ``sim.evaluate(P)`` for the derivatives at the current state, and
+``sim.reduce(map, state, P)`` for a reduction map (over every process's particles in a
+decomposed run).
 A model without a continuity equation (density by summation) has ``continuity = False``; the
 integrator then leaves rho alone.
 
@@ -427,7 +429,7 @@ class RungeKutta(Integrator):
         while True:
             dt = float(P.dt)
             self._attempt(sim, P)
-            err = error(sim.state(self.err_w), P)[2]
+            err = sim.reduce(error, sim.state(self.err_w), P)[2]
             self.stats = {"rk_error": err, "rk_rejected": rejected}
             if not self.adaptive:
                 return dt
@@ -545,7 +547,7 @@ class ImplicitMidpoint(Integrator):
         for it in range(1, self.max_iter + 1):
             midstate(sim.state(), P)
             sim.evaluate(P)
-            r, size = residual(sim.state(), P)[:2]
+            r, size = sim.reduce(residual, sim.state(), P)[:2]
             res = r / size if size > 0 else (0.0 if r == 0 else float("inf"))
             if res < 0.5 * best:
                 best, since_best = res, 0

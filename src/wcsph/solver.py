@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import geometry
+from . import geometry, parallel
 from .backends import get_backend
 from .config import CaseError
 from .grid import Grid
@@ -77,11 +77,18 @@ class _StopRequest:
 
 
 class Simulation:
-    """A case set up on a backend, ready to step. ``case`` is a validated case dict."""
+    """A case set up on a backend, ready to step. ``case`` is a validated case dict.
+    ``comm``: the MPI communicator to share the case over (``parallel``); by default the
+    world of ``mpiexec``/``srun`` when started by one with several processes, else none."""
 
-    def __init__(self, case, backend=None):
+    def __init__(self, case, backend=None, comm="world"):
         t_setup = time.perf_counter()
         self.case = case
+        self.par = None  # the decomposition over MPI ranks (``parallel``), when there is one
+        try:
+            comm = parallel.world() if comm == "world" else comm
+        except parallel.ParallelError as e:
+            raise CaseError(str(e)) from None
         self.dim = dim = case["dim"]
         self.dtype = dtype = np.dtype(case["precision"]).type
         self.backend = be = get_backend(backend or case["backend"])
@@ -175,6 +182,17 @@ class Simulation:
         be.wrap(self.fluid, self.grid)
         be.sort(self.fluid, self.grid)
         model.initialize(self.fluid, self.walls, self.P, self.G, self.mass)
+        if comm is not None and comm.Get_size() > 1:
+            if self.open is not None:
+                raise CaseError(f"{case['_source']}: open_boundary: open boundaries run on one process only "
+                                "(buffers create and remove particles); run the case without mpiexec")
+            pc = case["parallel"]
+            try:
+                self.par = parallel.Decomposition(comm, self.grid, model.halo_depth(), be, pc["axis"],
+                                                  pc["balance_threshold"], pc["balance_interval"])
+            except ValueError as e:
+                raise CaseError(f"{case['_source']}: parallel.axis: {e}") from None
+            self.par.redistribute(self.fluid, whole=True)  # every rank built all: keep one's own
         self.probes = probes.PointProbes(self)
 
         self.t = 0.0
@@ -250,9 +268,43 @@ class Simulation:
         return self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t), self.vmax)
 
     def evaluate(self, P):
-        """The model's derivatives at the current state (called by the integrator)."""
+        """The model's derivatives at the current state (called by the integrator); a
+        decomposed run first refreshes its ghosts' state from their owners."""
         self.evaluations += 1
+        if self.par is not None:
+            self.par.update(self.fluid, parallel.STATE)
         self.model.derivatives(self.fluid, self.walls, P, self.G)
+
+    def reduce(self, fn, state, P):
+        """A reduction map of the integrator (``backend.make_reduce``): (sum, sum, max) over
+        the particles, over every rank's own in a decomposed run."""
+        if self.par is None:
+            return fn(state, P)
+        a, b, c = fn(state, P, self.fluid["owned"])
+        s = self.par.sum([a, b])
+        return float(s[0]), float(s[1]), float(self.par.max([c])[0])
+
+    def settle(self):
+        """p and V from the current density (``model.refresh``) and, in a decomposed run,
+        the ghosts' state and those fields from their owners: what corrections, probes and
+        body loads read of a neighbour after a step."""
+        self.model.refresh(self.fluid, self.P)
+        if self.par is not None:
+            self.par.update(self.fluid, parallel.SETTLED)
+
+    def n_fluid(self):
+        """Fluid particles in the case (over every rank)."""
+        if self.par is None:
+            return self.fluid.n
+        return int(self.par.sum([self.par.n_owned])[0])
+
+    def owned_host(self, *names):
+        """Host copies of the fluid's ``names``, of this rank's own particles only."""
+        arrays = self.host(self.fluid, *names)
+        if self.par is None:
+            return arrays
+        mine = self.backend.to_host(self.fluid["owned"]) != 0
+        return [a[..., mine] for a in arrays]
 
     def place_walls(self, t):
         """Moving walls to their position, normal and velocity at time t, then wrapped and
@@ -286,10 +338,13 @@ class Simulation:
         named = [b for b, name in enumerate(self.bodies.names) if name]
         if not named:
             return {}
-        be, fl = self.backend, self.fluid
+        be, fl, par = self.backend, self.fluid, self.par
+        if par is not None:
+            par.update(fl, parallel.STATE)
         saved = {k: be.to_host(fl[k]).copy() for k in fl.per_particle() if k in fl.scratch or k == "rho"}
         self.model.derivatives(fl, self.walls, self.P, self.G)
-        x, m, a_all = (a.astype(float) for a in self.host(fl, "x", "m", "dvdt"))
+        mine = be.to_host(fl["owned"]) != 0 if par is not None else slice(None)
+        x, m, a_all = (a.astype(float)[..., mine] for a in self.host(fl, "x", "m", "dvdt"))
         out = {}
         host = {k: be.to_host(self.walls[k]) for k in self.walls.per_particle() if k != "cell"}
         for b in named:
@@ -298,18 +353,20 @@ class Simulation:
                                                     for k, a in host.items()})
             be.sort(rest, self.grid)
             self.model.derivatives(fl, rest, self.P, self.G)
-            f = m * (a_all - be.to_host(fl["dvdt"]).astype(float))  # on the fluid, from the body
+            f = m * (a_all - be.to_host(fl["dvdt"]).astype(float)[..., mine])  # on the fluid, from the body
             force = -f.sum(axis=1)
             r = x - self.bodies.reference(b, self.t)[:, None]
+            torque = [-np.sum(r[0] * f[1] - r[1] * f[0])] if self.dim == 2 else -np.cross(r.T, f.T).sum(axis=0)
+            if par is not None:
+                force, torque = np.split(par.sum(np.concatenate([force, np.ravel(torque)])), [self.dim])
             name = self.bodies.names[b]
             for a, c in enumerate("xyz"[: self.dim]):
                 out[f"{name}_f{c}"] = float(force[a])
             if self.dim == 2:
-                out[f"{name}_torque"] = float(-np.sum(r[0] * f[1] - r[1] * f[0]))
+                out[f"{name}_torque"] = float(torque[0])
             else:
-                tq = -np.cross(r.T, f.T).sum(axis=0)
                 for a, c in enumerate("xyz"):
-                    out[f"{name}_t{c}"] = float(tq[a])
+                    out[f"{name}_t{c}"] = float(torque[a])
         for k, a in saved.items():
             fl[k] = be.to_device(a)
         return out
@@ -327,8 +384,11 @@ class Simulation:
         serve its later stages too, which moves particles by far less than a cell), the
         integrator's stages, then the model's wall corrections. An adaptive integrator may
         take a smaller step than ``dt``; returns the step taken."""
-        be = self.backend
-        self.dropped += be.sort(self.fluid, self.grid)
+        be, par = self.backend, self.par
+        if par is None:
+            self.dropped += be.sort(self.fluid, self.grid)
+        else:  # ghosts dropped, particles migrated (and the cuts moved), new ghosts, sorted
+            self.dropped += par.redistribute(self.fluid)
         self.P = self.params_for(dt)
         if self.open is not None:
             self.open.before(self)
@@ -338,17 +398,23 @@ class Simulation:
             raise SimulationError(f"{e} at t = {self.t:.6g} s (step {self.steps})") from None
         if dt != float(self.P.dt):
             self.P = self.params_for(dt)
-        self.model.correct(self.fluid, self.walls, self.P, self.G, self.steps + 1)
+        self.model.correct(self.fluid, self.walls, self.P, self.G, self.steps + 1,
+                           settle=self.settle if par is not None else None)
         if self.open is not None:  # buffers prescribed; particles enter, leave, are created
             self.open.after(self, dt)
         be.wrap(self.fluid, self.grid)  # a particle that left through a periodic side re-enters
         self.t += dt
         self.steps += 1
         self.place_walls(self.t)  # moving walls where they are at the new time (output, next step)
-        if self.fluid.n == 0:
+        if (self.fluid.n if par is None else self.n_fluid()) == 0:
             raise SimulationError(f"every fluid particle has left the domain by t = {self.t:.6g} s "
                                   f"(step {self.steps}); enlarge [domain] or close the tank")
-        vmax2, amax2, bad = be.check(self.fluid)
+        if par is None:
+            vmax2, amax2, bad = be.check(self.fluid)
+        else:  # over every rank's own particles: every rank takes the same step next
+            vmax2, amax2, bad = be.check(self.fluid, self.fluid["owned"])
+            vmax2, amax2 = par.max([vmax2, amax2])
+            bad = int(par.sum([bad])[0])
         self.vmax, self.amax = math.sqrt(vmax2), math.sqrt(amax2)
         if bad:
             raise SimulationError(f"{bad} fluid particles have a non-finite position, velocity or "
@@ -369,13 +435,21 @@ class Simulation:
         step count, RK45's next step, the midpoint's primed guess) and the output series."""
         from . import __version__
 
+        names = [k for k in self.fluid.per_particle() if k != "owned"]
+        arrays = dict(zip(names, self.owned_host(*names)))
+        dropped = self.dropped
+        if self.par is not None:  # one file of every rank's own particles: restarts on any count
+            arrays = self.par.gather(arrays)
+            dropped = int(self.par.sum([dropped])[0])
+            if self.par.rank != 0:
+                return
         meta = {"format": "wcsph checkpoint", "version": CHECKPOINT_VERSION, "wcsph": __version__,
                 "case": {k: v for k, v in self.case.items() if not k.startswith("_")},
                 "fingerprint": case_fingerprint(self.case), "t": self.t, "steps": self.steps,
-                "evaluations": self.evaluations, "dropped": self.dropped, "vmax": self.vmax, "amax": self.amax,
-                "n": self.fluid.n, "integrator": self.integrator.carried_state(), "output": output_state,
+                "evaluations": self.evaluations, "dropped": dropped, "vmax": self.vmax, "amax": self.amax,
+                "n": int(arrays["x"].shape[1]), "integrator": self.integrator.carried_state(), "output": output_state,
                 "open_boundary": self.open.carried_state() if self.open is not None else None}
-        arrays = {f"fluid.{k}": self.backend.to_host(self.fluid[k]) for k in self.fluid.per_particle()}
+        arrays = {f"fluid.{k}": a for k, a in arrays.items()}
         with vtk.atomic(path) as tmp:
             with open(tmp, "wb") as f:
                 np.savez(f, meta=np.array(json.dumps(meta)), **arrays)
@@ -408,15 +482,20 @@ class Simulation:
                             f"(case {meta['case'].get('name')!r}); restart it with the case it was written by")
         be = self.backend
         for k in self.fluid.per_particle():
-            if k not in arrays:
+            if k not in arrays and k != "owned":
                 raise CaseError(f"{source}: the checkpoint lacks the fluid field {k!r}")
         self.fluid.n = int(meta["n"])
+        self.fluid.arrays.pop("owned", None)
         for k, a in arrays.items():
             self.fluid[k] = be.to_device(np.ascontiguousarray(a))
         for k in [k for k in self.fluid.arrays if k.startswith("_")]:
             del self.fluid.arrays[k]  # the sort's spare arrays, sized for the old count
         self.t, self.steps, self.evaluations = meta["t"], meta["steps"], meta["evaluations"]
         self.dropped, self.vmax, self.amax = meta["dropped"], meta["vmax"], meta["amax"]
+        if self.par is not None:  # any number of ranks: each keeps its own of the whole
+            self.par.redistribute(self.fluid, whole=True)
+            if self.par.rank != 0:
+                self.dropped = 0  # counted once, on rank 0
         self.integrator.restore(meta["integrator"])
         if self.open is not None:
             self.open.restore(meta["open_boundary"])
@@ -446,6 +525,8 @@ class Simulation:
         writer = Output(self, out, oc, self._resumed_output) if out is not None else None
         max_steps = case["time"]["max_steps"]
         show = oc["progress"] if progress is None else progress
+        par = self.par
+        show = show and (par is None or par.rank == 0)
 
         t_start = time.perf_counter()
         resumed = self._resumed_output or {}
@@ -478,7 +559,11 @@ class Simulation:
                     if writer is not None and ckpt_every > 0 and self.t >= next_ckpt - slack:
                         writer.checkpoint(next_out, next_probe)
                         next_ckpt += ckpt_every
-                    if stop.signal is not None:
+                    stopping = stop.signal is not None
+                    if par is not None and par.any(stopping):  # every rank stops at the same step
+                        stopping = True
+                        stop.signal = stop.signal or "a signal to another rank"
+                    if stopping:
                         status = "interrupted"
                         message = (f"stopped by {stop.signal} at t = {self.t:.6g} s (step {self.steps})")
                         if writer is not None:
@@ -509,17 +594,26 @@ class Simulation:
         if writer is not None and status != "failed":
             writer.checkpoint(next_out, next_probe)  # a clean stop or the end: the run can be continued
         wall = time.perf_counter() - t_start
+        n_fluid = self.n_fluid()
+        dropped = self.dropped if par is None else int(par.sum([self.dropped])[0])
         stepping = (time.perf_counter() - t_loop - (io_time - io0)) if t_loop else 0.0
         timed_steps = self.steps - steps0 if t_loop else 0
         summary = {
             "case": case["name"], "status": status, "message": message, "model": case["model"]["name"],
             "backend": self.backend.name, "precision": case["precision"], "dim": self.dim, "dp": self.dp,
             "h": self.h, "speed_of_sound": self.c0, "particle_mass": self.mass,
-            "n_fluid": self.fluid.n, "n_boundary": self.walls.n, "dropped": self.dropped,
+            "n_fluid": n_fluid, "n_boundary": self.walls.n, "dropped": dropped,
             "steps": self.steps, "evaluations": self.evaluations, "end_time": self.t, "wall_time_s": wall,
             "compile_time_s": self.setup_time + (compile_time or 0.0), "io_time_s": io_time, "stepping_time_s": stepping,
-            "particle_steps_per_s": self.fluid.n * timed_steps / stepping if stepping > 0 else 0.0,
+            "particle_steps_per_s": n_fluid * timed_steps / stepping if stepping > 0 else 0.0,
         }
+        if par is not None:  # the decomposition: ranks, cuts, the exchanges' share of the time
+            share = par.sum([par.exchange_time, par.n_owned]) / par.size
+            summary["parallel"] = {
+                "ranks": par.size, "axis": "xyz"[par.axis], "cuts": [int(c) for c in par.cuts],
+                "rebalances": par.rebalances, "imbalance": par.imbalance,
+                "exchange_time_s_mean": float(share[0]), "exchange_time_s_max": float(par.max([par.exchange_time])[0]),
+                "particles_per_rank_max": int(par.max([par.n_owned])[0]), "particles_per_rank_mean": float(share[1])}
         if self.open is not None:  # particles created at inlets, removed at outlets
             summary["open_boundary"] = self.open.summary()
         if writer is not None:
@@ -532,22 +626,18 @@ class Simulation:
 
 
 class Output:
-    """VTK series, probes.csv and run.json in one directory."""
+    """VTK series, probes.csv and run.json in one directory. In a decomposed run each rank
+    writes its piece of every frame (``fluid_NNNN_pR.vtu``) and rank 0 the ``.pvtu`` that
+    joins them, the series and the tables; a file one rank cannot write stops every rank."""
 
     def __init__(self, sim, out, oc, resumed=None):
         self.sim, self.out, self.oc = sim, out, oc
-        out.mkdir(parents=True, exist_ok=True)
+        self.par = sim.par
+        self.root = self.par is None or self.par.rank == 0
         resumed = resumed or {}
         self.entries = [tuple(e) for e in resumed.get("entries", [])]
         self.count = resumed.get("count", 0)
         self.iter_max = resumed.get("iter_max", 0)
-        # frames of an earlier run in the same directory (or, on a restart, written after
-        # the checkpoint) would sit beside the series without being listed in it
-        keep = {e[2] for e in self.entries}
-        for old in [*out.glob("fluid_[0-9]*.vtu"), *out.glob("walls_[0-9]*.vtu"), *out.glob("fluid_failed.vtu"),
-                    *out.glob(".*.tmp[0-9]*")]:
-            if old.name not in keep:
-                old.unlink()
         self.last_good = "(none written)"
         cols = ["time", "step", "dt", "n_fluid", "kinetic_energy", "potential_energy"]
         if oc["surge_front"]:
@@ -555,17 +645,66 @@ class Output:
         cols += sim.probes.columns() + sim.body_columns()
         self.stats = sim.integrator.columns()  # per-step figures of the scheme (midpoint, RK45)
         cols += self.stats + (["midpoint_iterations_max"] if "midpoint_iterations" in self.stats else [])
-        upto = sim.steps if resumed else None  # a restart keeps the rows up to its checkpoint
-        self.probes = probes.ProbeWriter(out / "probes.csv", cols, keep_steps=upto)
-        self.steps_log = probes.ProbeWriter(out / "steps.csv", ["step", "time", "dt"] + self.stats,
-                                            keep_steps=upto) if self.stats else None
-        if oc["vtk"] and sim.walls.n and not sim.bodies.moving:
-            self._write_walls("walls.vtu")
+        self.probes = self.steps_log = None
+
+        def start():
+            out.mkdir(parents=True, exist_ok=True)
+            # frames of an earlier run in the same directory (or, on a restart, written after
+            # the checkpoint) would sit beside the series without being listed in it
+            keep = {_frame(e[2]) for e in self.entries}
+            for old in [*out.glob("fluid_[0-9]*.vtu"), *out.glob("fluid_[0-9]*.pvtu"), *out.glob("walls_[0-9]*.vtu"),
+                        *out.glob("fluid_failed*.vtu"), *out.glob("fluid_failed.pvtu"), *out.glob(".*.tmp[0-9]*")]:
+                if _frame(old.name) not in keep or old.name.startswith("."):
+                    old.unlink()
+            upto = sim.steps if resumed else None  # a restart keeps the rows up to its checkpoint
+            self.probes = probes.ProbeWriter(out / "probes.csv", cols, keep_steps=upto)
+            self.steps_log = probes.ProbeWriter(out / "steps.csv", ["step", "time", "dt"] + self.stats,
+                                                keep_steps=upto) if self.stats else None
+            if oc["vtk"] and sim.walls.n and not sim.bodies.moving:
+                self._write_walls("walls.vtu")
+
+        self._root(start)
+
+    def _root(self, fn):
+        """``fn()`` on rank 0 (the only process of a plain run); its OSError raised on every rank."""
+        err = None
+        if self.root:
+            try:
+                fn()
+            except OSError as e:
+                err = e
+        if self.par is not None:
+            self.par.agree(err)
+        elif err is not None:
+            raise err
 
     def _write_walls(self, name):
         sim = self.sim
         names = [k for k in ("n", "elementSize", "psi", "v") if k in sim.walls.arrays]
         vtk.write_points(self.out / name, sim.host(sim.walls, "x")[0], dict(zip(names, sim.host(sim.walls, *names))))
+
+    def _write_fluid(self, base):
+        """The fluid's frame ``base``: one .vtu, or a rank's piece each and their .pvtu."""
+        sim, par = self.sim, self.par
+        x, v, rho, p, ids = sim.owned_host("x", "v", "rho", "p", "id")
+        fields = {"rho": rho, "p": p, "v": v, "id": ids}
+        if "kind" in sim.fluid.arrays:
+            fields["kind"] = sim.owned_host("kind")[0]
+        if par is None:
+            vtk.write_points(self.out / f"{base}.vtu", x, fields)
+            return f"{base}.vtu"
+        piece = f"{base}_p{par.rank}.vtu"
+        err = None
+        try:
+            if x.shape[1]:
+                vtk.write_points(self.out / piece, x, fields)
+        except OSError as e:
+            err = e
+        par.agree(err)
+        counts = par.comm.gather(x.shape[1], root=0)
+        self._root(lambda: vtk.write_pvtu(self.out / f"{base}.pvtu", [f"{base}_p{r}.vtu" for r, c in enumerate(counts)
+                                                                      if c], fields))
+        return f"{base}.pvtu"
 
     def write(self, failed=False, sample=True):
         """A VTK frame (when ``vtk`` is on) and, with ``sample``, a row of probes.csv."""
@@ -573,38 +712,44 @@ class Output:
         if sample and not failed:
             self.sample()  # refreshes p from the current density first
         else:
-            sim.model.refresh(sim.fluid, sim.P)
+            sim.settle()
         if self.oc["vtk"]:
-            x, v, rho, p, ids = sim.host(sim.fluid, "x", "v", "rho", "p", "id")
-            name = "fluid_failed.vtu" if failed else f"fluid_{self.count:04d}.vtu"
-            fields = {"rho": rho, "p": p, "v": v, "id": ids}
-            if "kind" in sim.fluid.arrays:
-                fields["kind"] = sim.host(sim.fluid, "kind")[0]
-            vtk.write_points(self.out / name, x, fields)
+            name = self._write_fluid("fluid_failed" if failed else f"fluid_{self.count:04d}")
             if not failed:
                 self.entries.append((sim.t, 0, name))
-                if sim.walls.n and sim.bodies.moving:  # a frame of the walls too
-                    wname = f"walls_{self.count:04d}.vtu"
-                    self._write_walls(wname)
-                    self.entries.append((sim.t, 1, wname))
-                elif sim.walls.n:
-                    self.entries.append((sim.t, 1, "walls.vtu"))
-                vtk.write_pvd(self.out / "fluid.pvd", [e for e in self.entries if e[1] == 0])
-                vtk.write_pvd(self.out / "case.pvd", self.entries)
+
+                def series():
+                    if sim.walls.n and sim.bodies.moving:  # a frame of the walls too
+                        wname = f"walls_{self.count:04d}.vtu"
+                        self._write_walls(wname)
+                        self.entries.append((sim.t, 1, wname))
+                    elif sim.walls.n:
+                        self.entries.append((sim.t, 1, "walls.vtu"))
+                    vtk.write_pvd(self.out / "fluid.pvd", [e for e in self.entries if e[1] == 0])
+                    vtk.write_pvd(self.out / "case.pvd", self.entries)
+
+                self._root(series)
+                if not self.root and sim.walls.n:  # the same list on every rank (checkpoints)
+                    self.entries.append((sim.t, 1, f"walls_{self.count:04d}.vtu" if sim.bodies.moving
+                                         else "walls.vtu"))
                 self.last_good = f"{self.out / name} (t = {sim.t:.6g} s)"
         if not failed:
             self.count += 1
 
     def sample(self):
         """One row of probes.csv: time, energies, surge front, the probes, the scheme's figures."""
-        sim = self.sim
+        sim, par = self.sim, self.par
         values = sim.probes.sample()  # refreshes p from the current density first
-        x, v, m = sim.host(sim.fluid, "x", "v", "m")
+        x, v, m = sim.owned_host("x", "v", "m")
         ek, ep = probes.energies(x, v, m, sim.gravity)
+        front = probes.surge_front(x, sim.dp) if x.shape[1] else -np.inf
+        if par is not None:
+            ek, ep = (float(e) for e in par.sum([ek, ep]))
+            front = float(par.max([front])[0])
         row = {"time": sim.t, "step": sim.steps, "dt": float(sim.P.dt) if sim.steps else 0.0,
-               "n_fluid": sim.fluid.n, "kinetic_energy": ek, "potential_energy": ep}
+               "n_fluid": sim.n_fluid(), "kinetic_energy": ek, "potential_energy": ep}
         if self.oc["surge_front"]:
-            row["surge_front"] = probes.surge_front(x, sim.dp)
+            row["surge_front"] = front if np.isfinite(front) else float("nan")
         row.update(values)
         row.update(sim.body_loads())
         stats = sim.integrator.stats
@@ -612,26 +757,44 @@ class Output:
         if "midpoint_iterations" in stats:
             row["midpoint_iterations_max"] = self.iter_max
             self.iter_max = 0
-        self.probes.write(row)
+        self._root(lambda: self.probes.write(row))
 
     def log_step(self):
         """One row of ``steps.csv`` per step for schemes with per-step figures (midpoint
         iterations and residual, RK45 error and rejections)."""
-        if self.steps_log is None:
+        if not self.stats:
             return
         sim = self.sim
         stats = sim.integrator.stats
         self.iter_max = max(self.iter_max, stats.get("midpoint_iterations", 0))
-        self.steps_log.write(dict(stats, step=sim.steps, time=sim.t, dt=float(sim.P.dt)))
+        self._root(lambda: self.steps_log.write(dict(stats, step=sim.steps, time=sim.t, dt=float(sim.P.dt))))
 
     def checkpoint(self, next_out, next_probe):
         """``checkpoint.npz``: the state, and where the output series stands."""
-        self.sim.save_checkpoint(self.out / "checkpoint.npz", {
-            "entries": self.entries, "count": self.count, "iter_max": self.iter_max, "next_out": next_out,
-            "next_probe": next_probe})
+        err = None
+        try:
+            self.sim.save_checkpoint(self.out / "checkpoint.npz", {
+                "entries": self.entries, "count": self.count, "iter_max": self.iter_max, "next_out": next_out,
+                "next_probe": next_probe})
+        except OSError as e:
+            err = e
+        if self.par is not None:
+            self.par.agree(err)
+        elif err is not None:
+            raise err
 
     def close(self, summary):
-        self.probes.close()
-        if self.steps_log is not None:
-            self.steps_log.close()
-        vtk.write_text(self.out / "run.json", json.dumps(summary, indent=2) + "\n")
+        def finish():
+            self.probes.close()
+            if self.steps_log is not None:
+                self.steps_log.close()
+            vtk.write_text(self.out / "run.json", json.dumps(summary, indent=2) + "\n")
+
+        self._root(finish)
+
+
+def _frame(name):
+    """The frame a file belongs to: ``fluid_0003`` of fluid_0003.vtu, .pvtu and its pieces."""
+    import re
+
+    return re.sub(r"(_p[0-9]+)?\.p?vtu$", "", name)

@@ -104,13 +104,17 @@ def _gather2(src, perm, dst):
 
 
 @njit(parallel=True, cache=True)
-def _check(x, v, a):
-    """Largest |v|^2 and |a|^2, and the count of particles with a non-finite x, v or a.
-    Not fastmath: it must see NaN and inf."""
+def _check(x, v, a, owned):
+    """Largest |v|^2 and |a|^2, and the count of particles with a non-finite x, v or a,
+    over the particles with ``owned[i]`` (every particle when ``owned`` is empty: a process
+    of a decomposed run skips its ghost copies). Not fastmath: it must see NaN and inf."""
     vmax2 = 0.0
     amax2 = 0.0
     bad = 0
+    every = owned.size == 0
     for i in prange(x.shape[1]):
+        if not every and owned[i] == 0:
+            continue
         s = 0.0
         q = 0.0
         ok = True
@@ -228,22 +232,28 @@ def _make_map_loop(fn):
     return call
 
 
+#: ``owned`` of a process that holds every particle it reduces over (no ghost copies)
+EVERY = np.zeros(0, dtype=np.uint8)
+
+
 def _make_reduce_loop(fn):
     @njit(parallel=True, fastmath=True, cache=True)
-    def run(I, P):
+    def run(I, P, owned):
         s1 = 0.0
         s2 = 0.0
         mx = 0.0
+        every = owned.size == 0
         for i in prange(I.x.shape[1]):
-            a, b, c = fn(i, I, P)
-            s1 += a
-            s2 += b
-            mx = max(mx, c)
+            if every or owned[i] != 0:
+                a, b, c = fn(i, I, P)
+                s1 += a
+                s2 += b
+                mx = max(mx, c)
         return s1, s2, mx
 
-    def call(I, P):
+    def call(I, P, owned=None):
         with _threads_for(I.x.shape[1]):
-            return run(I, P)
+            return run(I, P, EVERY if owned is None else owned)
 
     return call
 
@@ -285,7 +295,8 @@ class CpuBackend:
         return _make_map_loop(fn)
 
     def make_reduce(self, fn):
-        """A per-particle function returning (a, b, c) reduced to (sum a, sum b, max c)."""
+        """A per-particle function returning (a, b, c) reduced to (sum a, sum b, max c), over
+        the particles with ``owned[i]`` when the call passes ``owned`` (a decomposed run)."""
         return _make_reduce_loop(fn)
 
     def sort(self, pset, grid):
@@ -330,7 +341,21 @@ class CpuBackend:
             pset[key] = a
         return a
 
-    def check(self, pset):
+    def take(self, a, idx):
+        """a[..., idx], a new host array (a halo's send buffer)."""
+        return a[..., idx]
+
+    def put(self, a, idx, values):
+        """a[..., idx] = values, in place."""
+        a[..., idx] = values
+
+    def index(self, idx):
+        """An index list as ``take`` and ``put`` take it."""
+        return np.ascontiguousarray(idx, dtype=np.int64)
+
+    def check(self, pset, owned=None):
+        """(max |v|^2, max |a|^2, non-finite count) over ``pset``, or its particles with
+        ``owned[i]``."""
         with _threads_for(pset.n):
-            vmax2, amax2, bad = _check(pset["x"], pset["v"], pset["dvdt"])
+            vmax2, amax2, bad = _check(pset["x"], pset["v"], pset["dvdt"], EVERY if owned is None else owned)
         return float(vmax2), float(amax2), int(bad)

@@ -59,6 +59,21 @@ def _gather2(src, perm, dst):
 
 
 @cuda.jit
+def _scatter1(src, idx, dst):
+    k = cuda.grid(1)
+    if k < idx.size:
+        dst[idx[k]] = src[k]
+
+
+@cuda.jit
+def _scatter2(src, idx, dst):
+    k = cuda.grid(1)
+    if k < idx.size:
+        for d in range(src.shape[0]):
+            dst[d, idx[k]] = src[d, k]
+
+
+@cuda.jit
 def _speeds(x, v, a, out):
     """out[0, i] = |v|^2, out[1, i] = |a|^2, out[2, i] = 1 if anything is non-finite."""
     i = cuda.grid(1)
@@ -170,20 +185,24 @@ def _make_reduce_kernel(fn):
             out[1, i] = b
             out[2, i] = c
 
-    def launch(I, P):
+    def launch(I, P, owned=None):
         n = I.x.shape[1]
         if n == 0:
             return 0.0, 0.0, 0.0
         out = cuda.device_array((3, n), dtype=np.float64)
         run[_blocks(n), THREADS](I, P, out)
-        return _reduce_rows(out, ("sum", "sum", "max"))
+        return _reduce_rows(out, ("sum", "sum", "max"), owned)
 
     return launch
 
 
-def _reduce_rows(out, ops):
+def _reduce_rows(out, ops, owned=None):
     """Each row of a (rows, n) device array reduced by its op ("sum" or "max"), on the
-    device with CuPy when present, else on the host."""
+    device with CuPy when present, else on the host; over the columns with ``owned[i]``
+    when given (a process of a decomposed run skips its ghost copies)."""
+    if owned is not None:  # the host reduces a decomposed run's rows (staged, like its halo)
+        o = out.copy_to_host()[:, np.asarray(owned, dtype=bool)]
+        return tuple(float(getattr(o[k], op)()) if o.shape[1] else 0.0 for k, op in enumerate(ops))
     o = _cp.asarray(out) if _cp is not None else out.copy_to_host()
     r = [getattr(o[k], op)() for k, op in enumerate(ops)]
     r = _cp.stack(r).get() if _cp is not None else r
@@ -253,6 +272,7 @@ class CudaBackend:
             start_d = cuda.to_device(start_h)
             n_in = int(start_h[g.ncells])
         pset["start"] = start_d
+        pset["_perm"] = perm  # new position -> old (a decomposed run maps its halo lists through it)
         for k in pset.sorted_fields():
             a = pset[k]
             out = cuda.device_array_like(a)
@@ -266,11 +286,33 @@ class CudaBackend:
             pset.n = n_in
         return dropped
 
-    def check(self, pset):
+    def take(self, a, idx):
+        """a[..., idx] on the host (a halo's send buffer, staged through the host); ``idx``
+        a device array of int64."""
+        n = idx.size
+        flat = a.reshape(-1, a.shape[-1]) if a.ndim > 2 else a
+        out = cuda.device_array(flat.shape[:-1] + (n,), dtype=a.dtype)
+        if n:
+            (_gather1 if flat.ndim == 1 else _gather2)[_blocks(n), THREADS](flat, idx, out)
+        return out.copy_to_host().reshape(a.shape[:-1] + (n,))
+
+    def put(self, a, idx, values):
+        """a[..., idx] = values (host), in place on the device."""
+        n = idx.size
+        if not n:
+            return
+        flat = a.reshape(-1, a.shape[-1]) if a.ndim > 2 else a
+        src = cuda.to_device(np.ascontiguousarray(values.reshape(flat.shape[:-1] + (n,))))
+        (_scatter1 if flat.ndim == 1 else _scatter2)[_blocks(n), THREADS](src, idx, flat)
+
+    def index(self, idx):
+        return cuda.to_device(np.ascontiguousarray(idx, dtype=np.int64))
+
+    def check(self, pset, owned=None):
         n = pset.n
         if n == 0:
             return 0.0, 0.0, 0
         out = cuda.device_array((3, n), dtype=np.float64)
         _speeds[_blocks(n), THREADS](pset["x"], pset["v"], pset["dvdt"], out)
-        vmax2, amax2, bad = _reduce_rows(out, ("max", "max", "sum"))
+        vmax2, amax2, bad = _reduce_rows(out, ("max", "max", "sum"), owned)
         return vmax2, amax2, int(bad)

@@ -116,6 +116,7 @@ class PointProbes:
         if not self.n:
             return
         allp = np.concatenate(pts, axis=1)
+        self.base = allp
         self.heights = allp[-1]
         be, dtype = sim.backend, sim.dtype
         self.points = ParticleSet("probes", sim.dim, {"x": be.to_device(allp.astype(dtype))})
@@ -134,13 +135,17 @@ class PointProbes:
         """{probe name: value} at the current state (after refreshing the model's p from
         the current density)."""
         sim = self.sim
-        sim.model.refresh(sim.fluid, sim.P)
+        sim.settle()
         if not self.n:
             return {}
         f = sim.fluid
         fluid = ProbeFluid(f["x"], f["p"], f["rho"], f["m"], f["cell"], f["start"])
         self.sampler(self.points.view(ProbePoints), fluid, fluid, sim.P, sim.G)
         sp, sw = (sim.backend.to_host(self.points[k]).astype(float)[self.order] for k in ("sum_p", "sum_w"))
+        par = sim.par
+        if par is not None:  # each point from the rank whose slab holds it (its neighbours are there)
+            mine = par.owner(par.column(self.base)) == par.rank
+            sp, sw = par.sum(np.stack([sp * mine, sw * mine]))
         out = {}
         for pr, sl in zip(self.specs, self.slices):
             if pr["kind"] == "pressure":

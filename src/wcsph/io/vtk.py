@@ -63,3 +63,27 @@ def write_pvd(path, entries):
     ET.indent(root)
     with atomic(path) as tmp:
         ET.ElementTree(root).write(tmp, xml_declaration=True, encoding="utf-8")
+
+
+#: VTK's names of the numpy types meshio writes
+_VTK_TYPES = {"float32": "Float32", "float64": "Float64", "int64": "Int64", "int32": "Int32", "uint8": "UInt8"}
+
+
+def write_pvtu(path, pieces, point_data):
+    """The .pvtu that joins ``pieces`` (.vtu files of ``write_points``, one per rank) into one
+    dataset; ``point_data`` gives the arrays' names, types and components (as for
+    ``write_points``; vectors have 3 components there)."""
+    root = ET.Element("VTKFile", type="PUnstructuredGrid", version="0.1", byte_order="LittleEndian")
+    grid = ET.SubElement(root, "PUnstructuredGrid", GhostLevel="0")
+    pd = ET.SubElement(grid, "PPointData")
+    for k, a in point_data.items():
+        a = np.asarray(a)
+        ET.SubElement(pd, "PDataArray", type=_VTK_TYPES[a.dtype.name], Name=k,
+                      NumberOfComponents="3" if a.ndim == 2 else "1")
+    pts = ET.SubElement(grid, "PPoints")
+    ET.SubElement(pts, "PDataArray", type="Float64", Name="points", NumberOfComponents="3")
+    for name in pieces:
+        ET.SubElement(grid, "Piece", Source=name)
+    ET.indent(root)
+    with atomic(path) as tmp:
+        ET.ElementTree(root).write(tmp, xml_declaration=True, encoding="utf-8")

@@ -344,21 +344,33 @@ class WCSPH:
             self.cspm_pass(f, f, w, P, G)
         self.interaction(f, f, w, P, G)
 
+    def halo_depth(self):
+        """Neighbour passes chained in one evaluation (a decomposed run's ghosts reach this
+        many kernel supports, so that every field a pass reads of a neighbour is right):
+        the density summation, the no-slip wall velocity, the boundary interpolation, the
+        CSPM matrix and the interaction, as the case has them."""
+        return 1 + sum(p is not None for p in (self.density_pass, self.noslip_pass, self.boundary_pass,
+                                               self.cspm_pass))
+
     def refresh(self, fluid, P):
         """p and V from the current density (continuity density: the last evaluation may have
         been at an integrator's intermediate stage; summation: those of the step's pass)."""
         if self.continuity:
             self.initialize_map(self.view(fluid, self.fluid_view), P)
 
-    def correct(self, fluid, walls, P, G, step=1):
+    def correct(self, fluid, walls, P, G, step=1, settle=None):
         """The corrections after time step number ``step``: DPC, XSPH on the positions,
         shifting, CSPM density re-initialisation (every N steps), then the elastic bounce and
-        NBVC-PST of boundary elements."""
+        NBVC-PST of boundary elements. ``settle()``, when given, replaces the refresh of p and
+        V before each correction (a decomposed run also refreshes its ghosts there)."""
         due = self.correction_passes and [t for t in self.correction_passes if step % t[0].every == 0]
         if due:
             w = self.view(walls, self.wall_view)
             for c, run, apply in due:
-                self.refresh(fluid, P)  # p and V of the state the correction starts from
+                if settle is None:
+                    self.refresh(fluid, P)  # p and V of the state the correction starts from
+                else:
+                    settle()
                 f = self.view(fluid, self.fluid_view)
                 run(f, f, w, P, G)
                 apply(f, P)

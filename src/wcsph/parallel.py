@@ -1,0 +1,303 @@
+"""One case on many processes: MPI (mpi4py) domain decomposition into slabs, ghost particles,
+halo exchange, migration and load balance.
+
+Launched with ``mpiexec -n N wcsph run CASE`` (or ``srun``), each rank owns one slab of the
+domain along one axis (the longest, by default), cut at cell boundaries of the global grid,
+which every rank shares. A rank holds its own particles and, after them in its arrays but
+sorted with them into one cell list, **ghost** copies of the particles of the other ranks
+within ``depth`` kernel supports of its slab (plus one column of cells for round-off):
+
+* ``depth`` is the number of neighbour passes in one derivative evaluation (the model's
+  ``halo_depth``): the passes run over the ghosts too, so a field a later pass reads of a
+  neighbour (the summation density, a boundary element's pressure, the CSPM matrix) is right
+  on every ghost within one support of the slab. The fields each pass writes are then not
+  exchanged between passes: one message per neighbour rank per evaluation.
+* **every evaluation** (each integrator stage, each midpoint iteration) first refreshes the
+  ghosts' state (x, v, rho) from their owners (``update``): ghosts are advanced by the
+  integrator's maps like every particle, but only their owners' values count.
+* **once per step**, before the sort (``redistribute``): ghosts are dropped, particles that
+  crossed a cut migrate to their new owner, the cuts move when the particle counts are out of
+  balance by more than ``parallel.balance_threshold`` (checked every
+  ``parallel.balance_interval`` steps), new ghosts are chosen and sent with every field the
+  sort carries, and all are sorted together. The sort's permutation then gives each rank the
+  positions of the particles it sends and of the ghosts it receives, fixed for the step.
+* a **periodic** cut axis needs nothing else: a ghost is sent where it is, and the periodic
+  walk finds it as the image it is across the seam, as it does a particle of the rank's own.
+
+Reductions (the time step's |v|max and |a|max, the integrators' residual and error, energies,
+probes, body loads) count a rank's own particles only (``owned``) and are summed or maxed over
+ranks, so every rank takes the same decisions (step size, iterations, rejections, stops) and
+calls the exchanges the same number of times. Walls are held whole by every rank.
+
+Run on one process, nothing here is used: the solver's single-process path is unchanged.
+"""
+import os
+import time
+
+import numpy as np
+
+#: environment variables a process manager sets for the processes it starts: MPICH's and
+#: Intel MPI's hydra and Slurm's PMI-2 (PMI_*), Open MPI (OMPI_*), PMIx (srun --mpi=pmix)
+_LAUNCHED = ("PMI_RANK", "PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "PMIX_RANK")
+
+#: the fields an evaluation reads of a neighbour that are the state (the rest it computes)
+STATE = ("x", "v", "rho")
+#: the fields the corrections, probes and body loads read of a neighbour after a step
+SETTLED = ("x", "v", "rho", "p", "pr", "vol", "c")
+
+
+class ParallelError(RuntimeError):
+    """MPI was asked for and cannot be used (mpi4py missing)."""
+
+
+def world():
+    """MPI's COMM_WORLD when this process was started by ``mpiexec``/``srun`` with more than one
+    process, else None (a plain run never imports MPI)."""
+    if not any(k in os.environ for k in _LAUNCHED):
+        return None
+    try:
+        from mpi4py import MPI
+    except ImportError:
+        raise ParallelError('started by mpiexec, but mpi4py is not installed: pip install -e ".[mpi]" '
+                            '(or "mpi4py==4.1.2" built against your site\'s MPI)') from None
+    comm = MPI.COMM_WORLD
+    return comm if comm.Get_size() > 1 else None
+
+
+def local_size(comm):
+    """How many ranks share this node (to split its cores between them)."""
+    from mpi4py import MPI
+
+    return comm.Split_type(MPI.COMM_TYPE_SHARED).Get_size()
+
+
+class Decomposition:
+    """Slabs along ``axis`` of ``grid``'s real cells for the ranks of ``comm``; ``depth``
+    kernel supports of ghosts (``Grid.reach`` cells each)."""
+
+    def __init__(self, comm, grid, depth, backend, axis="auto", balance_threshold=0.1, balance_interval=20):
+        from mpi4py import MPI
+
+        self.MPI = MPI
+        self.comm = comm.Dup()  # its own context: a user's messages on comm never meet the halo's
+        self.rank, self.size = self.comm.Get_rank(), self.comm.Get_size()
+        self.grid, self.backend = grid, backend
+        dim = grid.dim
+        real = np.asarray(grid.shape[:dim], dtype=np.int64) - 2 * grid.reach
+        self.axis = int(np.argmax(real)) if axis == "auto" else "xyz".index(axis)
+        if self.axis >= dim:
+            raise ValueError(f"axis {axis!r} of a {dim}D case")
+        self.ncol = int(real[self.axis])
+        lo, _ = grid.lengths()
+        self.lo = float(lo[self.axis])
+        self.width = float(grid.cell[self.axis])
+        self.periodic = bool(grid.periodic[self.axis])
+        self.depth = int(depth)
+        self.halo = self.depth * grid.reach + 1  # columns; the 1: a cell id rounded the other way
+        self.threshold = float(balance_threshold)
+        self.interval = int(balance_interval)
+        self.cuts = np.linspace(0, self.ncol, self.size + 1).round().astype(np.int64)
+        self.send, self.recv = [], []  # (rank, index list) for this step
+        self.n_owned = 0
+        self.calls = 0  # redistributions so far (one per step)
+        self.rebalances = 0
+        self.exchange_time = 0.0  # seconds in the halo exchanges and redistributions
+        self.imbalance = 0.0  # max / mean - 1 of the particles per rank, at the last check
+
+    # ------------------------------------------------------------------ geometry
+    def column(self, x):
+        """Column of cells along the cut axis of each position (float64, as every rank
+        computes it the same)."""
+        c = np.floor((np.asarray(x[self.axis], dtype=np.float64) - self.lo) / self.width)
+        return c.astype(np.int64)
+
+    def owner(self, col):
+        """The rank whose slab holds each column (outside the domain: the nearest slab)."""
+        c = np.clip(col, 0, self.ncol - 1)
+        return np.clip(np.searchsorted(self.cuts, c, side="right") - 1, 0, self.size - 1)
+
+    def _near(self, col, d):
+        """Columns within the halo of rank d's slab (across a periodic seam too)."""
+        a, b = int(self.cuts[d]) - self.halo, int(self.cuts[d + 1]) + self.halo
+        if self.periodic:
+            span = b - a
+            if span >= self.ncol:
+                return np.ones(col.shape, dtype=bool)
+            return np.mod(col - a, self.ncol) < span
+        return (col >= a) & (col < b)
+
+    # ------------------------------------------------------------------ reductions
+    def sum(self, values):
+        a = np.ascontiguousarray(values, dtype=np.float64)
+        out = np.empty_like(a)
+        self.comm.Allreduce(a, out, op=self.MPI.SUM)
+        return out
+
+    def max(self, values):
+        a = np.ascontiguousarray(values, dtype=np.float64)
+        out = np.empty_like(a)
+        self.comm.Allreduce(a, out, op=self.MPI.MAX)
+        return out
+
+    def any(self, flag):
+        return bool(self.comm.allreduce(bool(flag), op=self.MPI.LOR))
+
+    def agree(self, error):
+        """Raise on every rank if ``error`` (an exception or None) is set on any: a file one
+        rank could not write stops all of them, not only that one (the others would wait at
+        the next exchange for ever)."""
+        failed = self.comm.allgather(None if error is None else str(error))
+        if error is not None:
+            raise error
+        bad = [(r, e) for r, e in enumerate(failed) if e is not None]
+        if bad:
+            raise OSError(f"rank {bad[0][0]}: {bad[0][1]}")
+
+    # ------------------------------------------------------------------ particles
+    def balance(self, col, force=False, whole=False):
+        """Move the cuts to equal particle counts per rank (at column boundaries) when the
+        imbalance max/mean - 1 exceeds the threshold (``force``: always). ``whole``: every
+        rank holds every particle (set-up, restart), so the counts are not summed."""
+        counts = np.bincount(np.clip(col, 0, self.ncol - 1), minlength=self.ncol).astype(np.float64)
+        if not whole:
+            counts = self.sum(counts)
+        per_rank = np.add.reduceat(counts, np.minimum(self.cuts[:-1], self.ncol - 1)) * (
+            self.cuts[1:] > self.cuts[:-1])
+        mean = counts.sum() / self.size
+        self.imbalance = float(per_rank.max() / mean - 1.0) if mean > 0 else 0.0
+        if not force and self.imbalance <= self.threshold:
+            return False
+        cum = np.cumsum(counts)
+        targets = cum[-1] * np.arange(1, self.size) / self.size
+        inner = np.searchsorted(cum, targets, side="left") + 1
+        cuts = np.concatenate([[0], np.minimum(inner, self.ncol), [self.ncol]]).astype(np.int64)
+        cuts = np.maximum.accumulate(cuts)
+        if np.array_equal(cuts, self.cuts):
+            return False
+        self.cuts = cuts
+        self.rebalances += 0 if force else 1
+        return True
+
+    def redistribute(self, fluid, whole=False):
+        """Drop the ghosts, migrate, rebalance (when due), choose and receive new ghosts, sort.
+        ``whole``: every rank holds every particle (set-up, restart): keep one's own. Returns
+        how many of this rank's own particles left the domain (the sort drops them)."""
+        t0 = time.perf_counter()
+        be, grid = self.backend, self.grid
+        names = fluid.per_particle()
+        h = {k: np.asarray(be.to_host(fluid[k])) for k in names}
+        if "owned" in h and not whole:
+            keep = h.pop("owned") != 0
+            h = {k: a[..., keep] for k, a in h.items()}
+        h.pop("owned", None)
+        col = self.column(h["x"])
+        due = whole or (self.size > 1 and self.interval > 0 and self.calls % self.interval == 0)
+        self.calls += 1
+        if due:
+            self.balance(col, force=whole, whole=whole)
+        dest = self.owner(col)
+        if whole:
+            mine = dest == self.rank
+            h = {k: np.ascontiguousarray(a[..., mine]) for k, a in h.items()}
+        else:  # migration: particles whose column another rank owns now
+            go = dest != self.rank
+            parts = [None] * self.size
+            for d in np.unique(dest[go]):
+                sel = dest == d
+                parts[d] = {k: a[..., sel] for k, a in h.items()}
+            got = [p for p in self.comm.alltoall(parts) if p is not None]
+            stay = ~go
+            h = {k: np.concatenate([a[..., stay]] + [p[k] for p in got], axis=-1) for k, a in h.items()}
+        n_own = h["x"].shape[1]
+        col = self.column(h["x"])
+        carried = [k for k in fluid.sorted_fields() if k in h]  # what a ghost needs (not scratch)
+        sel = {}
+        parts = [None] * self.size
+        for d in range(self.size):
+            if d != self.rank:
+                idx = np.nonzero(self._near(col, d))[0]
+                if idx.size:
+                    sel[d] = idx
+                    parts[d] = {k: h[k][..., idx] for k in carried}
+        got = self.comm.alltoall(parts)
+        sources = [(d, p) for d, p in enumerate(got) if p is not None]
+        n_ghost = sum(p["x"].shape[1] for _, p in sources)
+        for k in names:
+            if k == "owned":
+                continue
+            a = h[k]
+            if k in carried:
+                extra = [p[k] for _, p in sources]
+            else:
+                extra = [np.zeros(a.shape[:-1] + (n_ghost,), dtype=a.dtype)]
+            fluid[k] = be.to_device(np.ascontiguousarray(np.concatenate([a] + extra, axis=-1)))
+        flag = np.zeros(n_own + n_ghost, dtype=np.uint8)
+        flag[:n_own] = 1
+        fluid["owned"] = be.to_device(flag)
+        fluid.n = n_own + n_ghost
+        total = fluid.n
+        be.sort(fluid, grid)
+        n_in = fluid.n
+        perm = np.asarray(be.to_host(fluid["_perm"]))[:total]
+        inv = np.empty(total, dtype=np.int64)
+        inv[perm] = np.arange(total, dtype=np.int64)
+        self.send = []
+        for d, idx in sel.items():
+            pos = inv[idx]
+            pos = pos[pos < n_in]  # left the domain: the receiver drops its copy too
+            if pos.size:
+                self.send.append((d, be.index(pos)))
+        self.recv = []
+        start = n_own
+        for d, p in sources:
+            m = p["x"].shape[1]
+            pos = inv[start:start + m]
+            pos = pos[pos < n_in]
+            start += m
+            if pos.size:
+                self.recv.append((d, be.index(pos)))
+        lost = int(np.count_nonzero(inv[:n_own] >= n_in))
+        self.n_owned = n_own - lost
+        self.exchange_time += time.perf_counter() - t0
+        return lost
+
+    def update(self, fluid, names):
+        """Ghosts' ``names`` fields from their owners: one message each way per neighbour."""
+        if not self.send and not self.recv:
+            return
+        t0 = time.perf_counter()
+        be = self.backend
+        names = [k for k in names if k in fluid.arrays]
+        arrays = [fluid[k] for k in names]
+        dtype = np.dtype(arrays[0].dtype)
+        rows = [int(np.prod(a.shape[:-1])) for a in arrays]
+        width = sum(rows)
+        reqs, inbox = [], []
+        for d, idx in self.recv:
+            buf = np.empty((width, idx.size), dtype=dtype)
+            reqs.append(self.comm.Irecv(buf, source=d, tag=11))
+            inbox.append((idx, buf))
+        outbox = []
+        for d, idx in self.send:
+            buf = np.empty((width, idx.size), dtype=dtype)  # C order: MPI sends the memory as it lies
+            row = 0
+            for a, r in zip(arrays, rows):
+                buf[row:row + r] = np.asarray(be.take(a, idx)).reshape(r, idx.size)
+                row += r
+            outbox.append(buf)
+            reqs.append(self.comm.Isend(buf, dest=d, tag=11))
+        self.MPI.Request.Waitall(reqs)
+        for idx, buf in inbox:
+            row = 0
+            for a, r in zip(arrays, rows):
+                be.put(a, idx, buf[row:row + r].reshape(a.shape[:-1] + (idx.size,)))
+                row += r
+        self.exchange_time += time.perf_counter() - t0
+
+    def gather(self, arrays):
+        """Every rank's own particles' ``arrays`` (dict of host arrays) concatenated on rank 0
+        (None elsewhere), for a checkpoint any number of ranks can restart from."""
+        parts = self.comm.gather(arrays, root=0)
+        if self.rank != 0:
+            return None
+        return {k: np.concatenate([p[k] for p in parts], axis=-1) for k in arrays}
