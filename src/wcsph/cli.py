@@ -176,6 +176,38 @@ def _main(argv):
             print(f"wcsph: error: {e}", file=sys.stderr)
             return 2
         return 0
+    from . import parallel
+
+    try:
+        comm = parallel.world()
+    except parallel.ParallelError as e:
+        print(f"wcsph: error: {e}", file=sys.stderr)
+        return 2
+    if comm is None:
+        return _run(args, print)
+    # several processes (mpiexec, srun): rank 0 speaks; each rank takes its share of the
+    # node's cores unless NUMBA_NUM_THREADS says otherwise; an unexpected error on one rank
+    # ends all of them (the others would wait for it at the next exchange for ever)
+    if "NUMBA_NUM_THREADS" not in os.environ:
+        import numba
+
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        numba.set_num_threads(max(1, min(numba.config.NUMBA_NUM_THREADS, cores // parallel.local_size(comm))))
+    say = print if comm.Get_rank() == 0 else (lambda *a, **k: None)
+    try:
+        return _run(args, say)
+    except BaseException as e:  # noqa: B902 (a crash or a second Ctrl-C: stop the whole job)
+        import traceback
+
+        if not isinstance(e, KeyboardInterrupt):
+            traceback.print_exc()
+        print(f"wcsph: rank {comm.Get_rank()} of {comm.Get_size()} stopped ({type(e).__name__}); ending the job",
+              file=sys.stderr, flush=True)
+        comm.Abort(1 if not isinstance(e, KeyboardInterrupt) else 130)
+
+
+def _run(args, print):
+    """``wcsph run`` and ``wcsph resume``; ``print`` is silent on the ranks other than 0."""
     from .solver import OutputError, RunInterrupted, Simulation, SimulationError
 
     out = None
@@ -206,9 +238,10 @@ def _main(argv):
             out = args.output or f"runs/{case['name']}"
             _check_output(out, "--output" if args.output else f"the default output directory {out}")
             sim = Simulation(case)
-        print(f"{case['name']}: {case['dim']}D, dp = {case['dp']:g} m, {sim.fluid.n} fluid and "
+        ranks = f" on {sim.par.size} MPI ranks (slabs along {'xyz'[sim.par.axis]})" if sim.par is not None else ""
+        print(f"{case['name']}: {case['dim']}D, dp = {case['dp']:g} m, {sim.n_fluid()} fluid and "
               f"{sim.walls.n} wall particles, c0 = {sim.c0:.3g} m/s, {case['precision']} on "
-              f"{sim.backend.name}; output in {out}", flush=True)
+              f"{sim.backend.name}{ranks}; output in {out}", flush=True)
         for w in sim.warnings:
             print(f"wcsph: warning: {w}", file=sys.stderr, flush=True)
         summary = sim.run(output=out, progress=not args.no_progress and case["output"]["progress"])

@@ -71,6 +71,18 @@ def local_size(comm):
     return comm.Split_type(MPI.COMM_TYPE_SHARED).Get_size()
 
 
+def select_gpu(comm):
+    """One rank per GPU: the node's ranks take its GPUs in turn (before any CUDA context is
+    made). Halo data is staged through the host, so no CUDA-aware MPI is needed."""
+    from numba import cuda
+
+    me = comm.Split_type(__import__("mpi4py").MPI.COMM_TYPE_SHARED).Get_rank()
+    gpus = len(cuda.gpus)
+    if gpus:
+        cuda.select_device(me % gpus)
+    return me % gpus if gpus else None
+
+
 class Decomposition:
     """Slabs along ``axis`` of ``grid``'s real cells for the ranks of ``comm``; ``depth``
     kernel supports of ghosts (``Grid.reach`` cells each)."""

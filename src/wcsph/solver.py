@@ -89,6 +89,8 @@ class Simulation:
             comm = parallel.world() if comm == "world" else comm
         except parallel.ParallelError as e:
             raise CaseError(str(e)) from None
+        if comm is not None and comm.Get_size() > 1 and (backend or case["backend"]) == "cuda":
+            parallel.select_gpu(comm)  # before the backend makes a CUDA context
         self.dim = dim = case["dim"]
         self.dtype = dtype = np.dtype(case["precision"]).type
         self.backend = be = get_backend(backend or case["backend"])
