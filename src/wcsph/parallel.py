@@ -85,9 +85,12 @@ def select_gpu(comm):
 
 class Decomposition:
     """Slabs along ``axis`` of ``grid``'s real cells for the ranks of ``comm``; ``depth``
-    kernel supports of ghosts (``Grid.reach`` cells each)."""
+    kernel supports of ghosts (``Grid.reach`` cells each). ``axis="auto"``: the axis along
+    which ``extent`` (the size of the box the particles occupy) is longest: the domain above
+    an open tank is room for splashes, not work to share."""
 
-    def __init__(self, comm, grid, depth, backend, axis="auto", balance_threshold=0.1, balance_interval=20):
+    def __init__(self, comm, grid, depth, backend, axis="auto", balance_threshold=0.1, balance_interval=20,
+                 extent=None):
         from mpi4py import MPI
 
         self.MPI = MPI
@@ -96,7 +99,10 @@ class Decomposition:
         self.grid, self.backend = grid, backend
         dim = grid.dim
         real = np.asarray(grid.shape[:dim], dtype=np.int64) - 2 * grid.reach
-        self.axis = int(np.argmax(real)) if axis == "auto" else "xyz".index(axis)
+        if axis == "auto":
+            self.axis = int(np.argmax(real if extent is None else np.asarray(extent)[:dim]))
+        else:
+            self.axis = "xyz".index(axis)
         if self.axis >= dim:
             raise ValueError(f"axis {axis!r} of a {dim}D case")
         self.ncol = int(real[self.axis])
@@ -113,6 +119,7 @@ class Decomposition:
         self.n_owned = 0
         self.calls = 0  # redistributions so far (one per step)
         self.rebalances = 0
+        self.migrated = 0  # particles that moved to another rank (crossing a cut, or a cut moving)
         self.exchange_time = 0.0  # seconds in the halo exchanges and redistributions
         self.imbalance = 0.0  # max / mean - 1 of the particles per rank, at the last check
 
@@ -213,6 +220,7 @@ class Decomposition:
             h = {k: np.ascontiguousarray(a[..., mine]) for k, a in h.items()}
         else:  # migration: particles whose column another rank owns now
             go = dest != self.rank
+            self.migrated += int(np.count_nonzero(go))
             parts = [None] * self.size
             for d in np.unique(dest[go]):
                 sel = dest == d

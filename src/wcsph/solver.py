@@ -190,8 +190,10 @@ class Simulation:
                                 "(buffers create and remove particles); run the case without mpiexec")
             pc = case["parallel"]
             try:
+                occupied = np.concatenate([fluid_x, wall0["x"]], axis=1)  # the box with work in it
                 self.par = parallel.Decomposition(comm, self.grid, model.halo_depth(), be, pc["axis"],
-                                                  pc["balance_threshold"], pc["balance_interval"])
+                                                  pc["balance_threshold"], pc["balance_interval"],
+                                                  extent=np.ptp(occupied, axis=1))
             except ValueError as e:
                 raise CaseError(f"{case['_source']}: parallel.axis: {e}") from None
             self.par.redistribute(self.fluid, whole=True)  # every rank built all: keep one's own
@@ -614,6 +616,7 @@ class Simulation:
             summary["parallel"] = {
                 "ranks": par.size, "axis": "xyz"[par.axis], "cuts": [int(c) for c in par.cuts],
                 "rebalances": par.rebalances, "imbalance": par.imbalance,
+                "migrated": int(par.sum([par.migrated])[0]),
                 "exchange_time_s_mean": float(share[0]), "exchange_time_s_max": float(par.max([par.exchange_time])[0]),
                 "particles_per_rank_max": int(par.max([par.n_owned])[0]), "particles_per_rank_mean": float(share[1])}
         if self.open is not None:  # particles created at inlets, removed at outlets
