@@ -120,7 +120,9 @@ class Decomposition:
         self.calls = 0  # redistributions so far (one per step)
         self.rebalances = 0
         self.migrated = 0  # particles that moved to another rank (crossing a cut, or a cut moving)
-        self.exchange_time = 0.0  # seconds in the halo exchanges and redistributions
+        self.exchange_time = 0.0  # seconds in the halo exchanges and redistributions (not the sort)
+        self.update_time = 0.0  # of which in the halo updates (every evaluation)
+        self.sent_bytes = 0  # by this rank's halo updates
         self.imbalance = 0.0  # max / mean - 1 of the particles per rank, at the last check
 
     # ------------------------------------------------------------------ geometry
@@ -256,7 +258,9 @@ class Decomposition:
         fluid["owned"] = be.to_device(flag)
         fluid.n = n_own + n_ghost
         total = fluid.n
+        t_sort = time.perf_counter()
         be.sort(fluid, grid)
+        t_sort = time.perf_counter() - t_sort  # the sort a single process does too: not exchange
         n_in = fluid.n
         perm = np.asarray(be.to_host(fluid["_perm"]))[:total]
         inv = np.empty(total, dtype=np.int64)
@@ -278,7 +282,7 @@ class Decomposition:
                 self.recv.append((d, be.index(pos)))
         lost = int(np.count_nonzero(inv[:n_own] >= n_in))
         self.n_owned = n_own - lost
-        self.exchange_time += time.perf_counter() - t0
+        self.exchange_time += time.perf_counter() - t0 - t_sort
         return lost
 
     def update(self, fluid, names):
@@ -305,6 +309,7 @@ class Decomposition:
                 buf[row:row + r] = np.asarray(be.take(a, idx)).reshape(r, idx.size)
                 row += r
             outbox.append(buf)
+            self.sent_bytes += buf.nbytes
             reqs.append(self.comm.Isend(buf, dest=d, tag=11))
         self.MPI.Request.Waitall(reqs)
         for idx, buf in inbox:
@@ -312,7 +317,9 @@ class Decomposition:
             for a, r in zip(arrays, rows):
                 be.put(a, idx, buf[row:row + r].reshape(a.shape[:-1] + (idx.size,)))
                 row += r
-        self.exchange_time += time.perf_counter() - t0
+        dt = time.perf_counter() - t0
+        self.exchange_time += dt
+        self.update_time += dt
 
     def gather(self, arrays):
         """Every rank's own particles' ``arrays`` (dict of host arrays) concatenated on rank 0

@@ -1,0 +1,94 @@
+"""The paper model of docs/scaling.md: communication volume against work per step for the
+shipped 3D dam break (column 0.3 x 0.4 x 0.6 m in a 1.2 x 0.4 x 0.8 m tank) at 5 M, 50 M and
+500 M particles, on slabs (what ``wcsph.parallel`` does) and on cubic blocks (what 1000 ranks
+would need). Counting only, no run: every figure follows from the geometry and the settings
+printed at the top.
+
+    python benchmarks/scaling_model.py
+"""
+import math
+
+COLUMN = 0.3 * 0.4 * 0.6  # m^3 of water
+TANK = (1.2, 0.4, 0.8)  # m
+SPREAD = 1.2  # m of tank the water covers after the collapse (slabs cut along it)
+START = 0.3  # m it covers at the start
+DEPTH_AFTER = COLUMN / (SPREAD * TANK[1])  # mean water depth once spread (0.15 m)
+H_OVER_DP = 2.0  # smoothing_ratio of the shipped case; support 2h, cell h
+NEIGHBOURS = 4 / 3 * math.pi * (2 * H_OVER_DP) ** 3  # within the support: 268
+STATE_BYTES = 7 * 4  # x, v, rho in float32 (3D)
+GHOST_BYTES = 49 + 24  # every sorted field of a ghost (x v rho m id cell owned + an integrator's x_n v_n)
+#: per model: (halo depth in supports, evaluations per step, passes per evaluation)
+MODELS = {"classic (symplectic Euler)": (2, 1, 2), "WCSPH-BI conservative (symplectic Verlet)": (1, 2, 1)}
+#: assumed rates, to turn counts into times (stated in docs/scaling.md)
+PAIRS_PER_S = 2.0e10  # pair-term evaluations per second of one modern GPU (H100/H200 class)
+LINK = 20e9  # bytes/s a rank moves through host staging and the network (PCIe 4/5, 200 Gb/s IB)
+LATENCY = 5e-6  # s per message (IB, host-staged)
+
+
+def halo_thickness(depth, dp):
+    """Ghost layer thickness: (depth x 2 + 1) cells of h (``parallel.Decomposition.halo``)."""
+    return (2 * depth + 1) * H_OVER_DP * dp
+
+
+def slabs(n, ranks, depth, evals, passes, length):
+    dp = (COLUMN / n) ** (1 / 3)
+    t = halo_thickness(depth, dp)
+    own = n / ranks
+    slab = length / ranks
+    ghosts = min(2 * t / length * n, n - own) if ranks > 1 else 0.0
+    msgs = 2 * evals + 2 if ranks > 1 else 0
+    comm_bytes = evals * ghosts * STATE_BYTES + ghosts * GHOST_BYTES
+    work = evals * passes * (own + ghosts) * NEIGHBOURS
+    return dict(dp=dp, t=t, slab=slab, own=own, ghosts=ghosts, bytes=comm_bytes, work=work, msgs=msgs,
+                t_comm=comm_bytes / LINK + msgs * LATENCY, t_work=work / PAIRS_PER_S)
+
+
+def blocks(n, ranks, depth, evals, passes):
+    """Cubic blocks over the water once spread (1.2 x 0.4 x 0.15 m): each rank a cube of
+    side a = (volume / ranks)^(1/3) with ghosts on its six faces (26 neighbours)."""
+    dp = (COLUMN / n) ** (1 / 3)
+    t = halo_thickness(depth, dp)
+    own = n / ranks
+    a = (COLUMN / ranks) ** (1 / 3)
+    ghosts = ((a + 2 * t) ** 3 - a ** 3) / dp ** 3
+    msgs = 26 * (evals + 1)
+    comm_bytes = evals * ghosts * STATE_BYTES + ghosts * GHOST_BYTES
+    work = evals * passes * (own + ghosts) * NEIGHBOURS
+    return dict(dp=dp, t=t, slab=a, own=own, ghosts=ghosts, bytes=comm_bytes, work=work, msgs=msgs,
+                t_comm=comm_bytes / LINK + msgs * LATENCY, t_work=work / PAIRS_PER_S)
+
+
+def table(rows, title):
+    print(f"\n{title}\n")
+    print("| particles | ranks | dp (mm) | slab / block (mm) | own per rank | ghosts per rank | MB sent per step "
+          "| work per step (G pairs) | comm / work time |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for n, r, d in rows:
+        if d["slab"] < 2 * d["t"]:
+            print(f"| {n / 1e6:g} M | {r} | {d['dp'] * 1e3:.2f} | {d['slab'] * 1e3:.1f} | {d['own'] / 1e6:.3g} M "
+                  f"| thinner than its two halos ({2 * d['t'] * 1e3:.0f} mm): more ghosts than own particles | | | |")
+            continue
+        print(f"| {n / 1e6:g} M | {r} | {d['dp'] * 1e3:.2f} | {d['slab'] * 1e3:.0f} | {d['own'] / 1e6:.3g} M "
+              f"| {d['ghosts'] / 1e6:.3g} M | {d['bytes'] / 1e6:.1f} | {d['work'] / 1e9:.2f} "
+              f"| {d['t_comm'] / d['t_work']:.2f} |")
+
+
+def main():
+    print(f"neighbours per particle {NEIGHBOURS:.0f}; assumed {PAIRS_PER_S:.1e} pairs/s per GPU, "
+          f"{LINK / 1e9:g} GB/s and {LATENCY * 1e6:g} us per message")
+    for name, (depth, evals, passes) in MODELS.items():
+        rows = [(n, r, slabs(n, r, depth, evals, passes, SPREAD)) for n in (5e6, 50e6, 500e6) for r in (8, 64, 1000)]
+        table(rows, f"{name}: slabs along x over the spread water (1.2 m)")
+        rows = [(n, r, slabs(n, r, depth, evals, passes, START)) for n in (5e6, 50e6, 500e6) for r in (8, 64)]
+        table(rows, f"{name}: slabs at the start (the column, 0.3 m)")
+        rows = [(n, r, blocks(n, r, depth, evals, passes)) for n in (5e6, 50e6, 500e6) for r in (64, 1000)]
+        table(rows, f"{name}: cubic blocks (26 neighbours)")
+        for n in (5e6, 50e6, 500e6):
+            dp = (COLUMN / n) ** (1 / 3)
+            t = halo_thickness(depth, dp)
+            print(f"- {n / 1e6:g} M: slabs stop paying at about {SPREAD / (2 * t):.0f} ranks over the spread water "
+                  f"(a slab as thin as its two halos), {START / (2 * t):.0f} at the start")
+
+
+if __name__ == "__main__":
+    main()
