@@ -73,9 +73,10 @@ def worker(args):
             shares.append(float(par.max([ex / elapsed])[0]))
             exchange.append(float(par.max([ex / args.steps])[0]))
             sent.append(float(par.max([(par.sent_bytes - e0[2]) / args.steps])[0]))
+    n = sim.n_fluid()  # a collective: every rank calls it
     if par is None or par.rank == 0:
         med = statistics.median
-        print(json.dumps({"n": sim.n_fluid(), "step_s": med(per), "exchange_share": med(shares) if shares else 0.0,
+        print(json.dumps({"n": n, "step_s": med(per), "exchange_share": med(shares) if shares else 0.0,
                           "exchange_s": med(exchange) if exchange else 0.0, "sent_bytes": med(sent) if sent else 0.0,
                           "ranks": par.size if par else 1}), flush=True)
 

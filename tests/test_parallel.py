@@ -158,3 +158,30 @@ def test_checkpoint_restarts_on_other_rank_counts(tmp_path):
     ref = state(full)
     for d in (part, other):
         assert_same(ref, state(d), d.name)
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize("case,extra", [("moving_square_2d", ["--dp", "0.04"]), ("dam_break_2d_bi", ["--dp", "0.02"])])
+def test_probes_and_body_loads_are_totals(tmp_path, case, extra):
+    """probes.csv on 2 ranks (cut along x, through the square's path and between the pressure
+    sensors) is the one-process file: energies, pressure sensors, the body's force and torque."""
+    common = [case, *extra, "--set", F64, "--set", "output.vtk=false", "--set", "time.max_steps=150",
+              "--set", "output.probe_interval=0.002", "--set", 'parallel.axis="x"', "--no-progress"]
+    one, two = tmp_path / "one", tmp_path / "two"
+    subprocess.run([sys.executable, "-m", "wcsph", "run", *common, "-o", str(one)], check=True, capture_output=True,
+                   env=_env())
+    mpi(2, "-m", "wcsph", "run", *common, "-o", str(two))
+    import csv
+
+    def table(d):
+        with open(d / "probes.csv") as f:
+            rows = list(csv.reader(f))
+        return rows[0], np.array(rows[1:], dtype=float)
+
+    head, a = table(one)
+    head2, b = table(two)
+    assert head == head2 and a.shape == b.shape and a.shape[0] > 5
+    scale = np.abs(a).max(axis=0) + 1e-30
+    worst = (np.abs(a - b).max(axis=0) / scale).max()
+    assert worst < 1e-9, dict(zip(head, np.abs(a - b).max(axis=0) / scale))
+    assert json.loads((two / "run.json").read_text())["parallel"]["ranks"] == 2

@@ -201,7 +201,8 @@ def _reduce_rows(out, ops, owned=None):
     device with CuPy when present, else on the host; over the columns with ``owned[i]``
     when given (a process of a decomposed run skips its ghost copies)."""
     if owned is not None:  # the host reduces a decomposed run's rows (staged, like its halo)
-        o = out.copy_to_host()[:, np.asarray(owned, dtype=bool)]
+        mask = owned.copy_to_host() if hasattr(owned, "copy_to_host") else np.asarray(owned)
+        o = out.copy_to_host()[:, mask.astype(bool)]
         return tuple(float(getattr(o[k], op)()) if o.shape[1] else 0.0 for k, op in enumerate(ops))
     o = _cp.asarray(out) if _cp is not None else out.copy_to_host()
     r = [getattr(o[k], op)() for k, op in enumerate(ops)]
