@@ -92,15 +92,22 @@ def _sort_small(x, origin, inv_cell, nx, ny, nz, ncells, k, cell, start, perm, p
 
 @njit(parallel=True, cache=True)
 def _gather1(src, perm, dst):
-    for k in prange(perm.size):
+    for k in prange(dst.shape[0]):
         dst[k] = src[perm[k]]
 
 
 @njit(parallel=True, cache=True)
 def _gather2(src, perm, dst):
-    for k in prange(perm.size):
+    for k in prange(dst.shape[1]):
         for d in range(src.shape[0]):
             dst[d, k] = src[d, perm[k]]
+
+
+@njit(parallel=True, cache=True)
+def _drop_cells(cell, drop, ncells):
+    for i in prange(cell.size):
+        if drop[i]:
+            cell[i] = ncells
 
 
 @njit(parallel=True, cache=True)
@@ -299,10 +306,14 @@ class CpuBackend:
         the particles with ``owned[i]`` when the call passes ``owned`` (a decomposed run)."""
         return _make_reduce_loop(fn)
 
-    def sort(self, pset, grid):
+    def sort(self, pset, grid, drop=None):
         """Reorder ``pset`` by cell; drop particles outside the domain. Returns how many
         were dropped. Each field is gathered into a spare array kept from the previous sort
-        (``_spare_NAME``), which then becomes the next spare: no allocation per step."""
+        (``_spare_NAME``), which then becomes the next spare: no allocation per step.
+        ``drop``: flags (uint8) of particles to drop as well (a decomposed run's old ghosts
+        and emigrants); the fields are then gathered at their new size directly."""
+        if drop is not None:
+            return self._sort_dropping(pset, grid, drop)
         g = grid.view()
         x = pset["x"]
         origin, inv_cell = grid.geometry(x.dtype.type)
@@ -332,6 +343,43 @@ class CpuBackend:
                 pset[k] = np.ascontiguousarray(pset[k][..., :n_in])
             pset.n = n_in
         return dropped
+
+    def _sort_dropping(self, pset, grid, drop):
+        g = grid.view()
+        x = pset["x"]
+        origin, inv_cell = grid.geometry(x.dtype.type)
+        n = pset.n
+        if "cell" not in pset.arrays:
+            pset["cell"] = np.empty(n, dtype=np.int64)
+        if "start" not in pset.arrays:
+            pset["start"] = np.empty(g.ncells + 2, dtype=np.uint64)
+        cell, start = pset["cell"], pset["start"]
+        perm = self._spare(pset, "_perm", cell)
+        with _threads_for(n):
+            _cell_ids(x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell)
+            _drop_cells(cell, drop, g.ncells)
+        _counting_sort(cell, g.ncells, start, perm)
+        n_in = int(start[g.ncells])
+        fields = pset.sorted_fields()
+        scratch = [k for k in pset.per_particle() if k not in fields]
+        with _threads_for(n_in):
+            for k in fields:
+                a = pset[k]
+                out = pset.arrays.get("_spare_" + k)
+                if out is None or out.shape != a.shape[:-1] + (n_in,) or out.dtype != a.dtype:
+                    out = np.empty(a.shape[:-1] + (n_in,), dtype=a.dtype)
+                (_gather1 if a.ndim == 1 else _gather2)(a, perm, out)
+                pset["_spare_" + k] = a
+                pset[k] = out
+        for k in scratch:  # written before they are read: only their size matters
+            a = pset[k]
+            if a.shape[-1] != n_in:
+                spare = pset.arrays.get("_spare_" + k)
+                fits = spare is not None and spare.shape == a.shape[:-1] + (n_in,)
+                pset["_spare_" + k] = a
+                pset[k] = spare if fits else np.empty(a.shape[:-1] + (n_in,), dtype=a.dtype)
+        pset.n = n_in
+        return n - n_in
 
     @staticmethod
     def _spare(pset, key, like):

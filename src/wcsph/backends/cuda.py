@@ -46,16 +46,23 @@ def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
 @cuda.jit
 def _gather1(src, perm, dst):
     k = cuda.grid(1)
-    if k < perm.size:
+    if k < dst.size:
         dst[k] = src[perm[k]]
 
 
 @cuda.jit
 def _gather2(src, perm, dst):
     k = cuda.grid(1)
-    if k < perm.size:
+    if k < dst.shape[1]:
         for d in range(src.shape[0]):
             dst[d, k] = src[d, perm[k]]
+
+
+@cuda.jit
+def _drop_cells(cell, drop, ncells):
+    i = cuda.grid(1)
+    if i < cell.size and drop[i]:
+        cell[i] = ncells
 
 
 @cuda.jit
@@ -247,7 +254,8 @@ class CudaBackend:
     def make_reduce(self, fn):
         return _make_reduce_kernel(fn)
 
-    def sort(self, pset, grid):
+    def sort(self, pset, grid, drop=None):
+        """As the CPU backend's ``sort`` (``drop``: a device array of flags)."""
         g = grid.view()
         x = pset["x"]
         n = pset.n
@@ -258,6 +266,8 @@ class CudaBackend:
         if n:
             _cell_ids[_blocks(n), THREADS](x, cuda.to_device(origin), cuda.to_device(inv_cell), g.nx, g.ny, g.nz,
                                             g.ncells, g.k, cell)
+            if drop is not None:
+                _drop_cells[_blocks(n), THREADS](cell, drop, g.ncells)
         if _cp is not None:
             c = _cp.asarray(cell)
             perm_c = _cp.argsort(c, kind="stable") if n else _cp.zeros(0, dtype=_cp.int64)
@@ -274,16 +284,18 @@ class CudaBackend:
             n_in = int(start_h[g.ncells])
         pset["start"] = start_d
         pset["_perm"] = perm  # new position -> old (a decomposed run maps its halo lists through it)
-        for k in pset.sorted_fields():
-            a = pset[k]
-            out = cuda.device_array_like(a)
-            if n:
-                (_gather1 if a.ndim == 1 else _gather2)[_blocks(n), THREADS](a, perm, out)
-            pset[k] = out
         dropped = n - n_in
+        fields = pset.sorted_fields()
+        scratch = [k for k in pset.per_particle() if k not in fields]
+        for k in fields:  # the first n_in of the new order: the dropped ones are sorted last
+            a = pset[k]
+            out = cuda.device_array(a.shape[:-1] + (n_in,), dtype=a.dtype)
+            if n_in:
+                (_gather1 if a.ndim == 1 else _gather2)[_blocks(n_in), THREADS](a, perm, out)
+            pset[k] = out
         if dropped:
-            for k in pset.per_particle():
-                pset[k] = cuda.to_device(np.ascontiguousarray(self.to_host(pset[k])[..., :n_in]))
+            for k in scratch:  # written before they are read: only their size matters
+                pset[k] = cuda.device_array(pset[k].shape[:-1] + (n_in,), dtype=pset[k].dtype)
             pset.n = n_in
         return dropped
 
