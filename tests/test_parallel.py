@@ -75,6 +75,8 @@ RUNS_MORE = [
     ("poiseuille_2d", F64, 'parallel.axis="x"'),  # periodic along the cut, moving no-slip walls
     ("moving_square_2d", F64, "dp=0.04"),  # a moving body, its force summed over ranks
     ("dam_break_3d", F64, "dp=0.04"),
+    ("dam_break_2d_bi", "dp=0.02", F64, 'time.integrator="verlet"'),
+    ("dam_break_2d_bi", "dp=0.02", F64, 'time.integrator="rk45"'),
 ]
 
 
@@ -188,3 +190,18 @@ def test_probes_and_body_loads_are_totals(tmp_path, case, extra):
     worst = (np.abs(a - b).max(axis=0) / scale).max()
     assert worst < 1e-9, dict(zip(head, np.abs(a - b).max(axis=0) / scale))
     assert json.loads((two / "run.json").read_text())["parallel"]["ranks"] == 2
+
+
+@pytest.mark.validation
+def test_cuda_ranks_in_the_simulator(tmp_path, monkeypatch):
+    """One rank per GPU, run in Numba's CUDA simulator (no GPU here): the device sort that
+    drops ghosts, the gather and scatter of the halo and the masked reductions (the implicit
+    midpoint's residual) give the CPU's one-process result."""
+    monkeypatch.setenv("NUMBA_ENABLE_CUDASIM", "1")
+    runs = [("dam_break_2d", "dp=0.1", F64, 'backend="cuda"'),
+            ("dam_break_2d_bi", "dp=0.04", F64, 'backend="cuda"', 'time.integrator="midpoint"')]
+    got = on_ranks(2, 5, runs, tmp_path)
+    monkeypatch.delenv("NUMBA_ENABLE_CUDASIM")
+    for run, g in zip(runs, got):
+        on_cpu = [a for a in run[1:] if not a.startswith("backend")]
+        assert_same(run_here(run[0], on_cpu, 5), g, " ".join(run))

@@ -74,10 +74,15 @@ def local_size(comm):
 def select_gpu(comm):
     """One rank per GPU: the node's ranks take its GPUs in turn (before any CUDA context is
     made). Halo data is staged through the host, so no CUDA-aware MPI is needed."""
-    from numba import cuda
+    from mpi4py import MPI
 
-    me = comm.Split_type(__import__("mpi4py").MPI.COMM_TYPE_SHARED).Get_rank()
-    gpus = len(cuda.gpus)
+    me = comm.Split_type(MPI.COMM_TYPE_SHARED).Get_rank()
+    try:
+        from numba import cuda
+
+        gpus = len(cuda.gpus)
+    except Exception:  # no driver or no GPU: the backend says so, in its own words, when it starts
+        return None
     if gpus:
         cuda.select_device(me % gpus)
     return me % gpus if gpus else None
