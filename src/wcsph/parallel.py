@@ -263,8 +263,12 @@ class Decomposition:
         sources = [(d, p) for d, p in enumerate(got) if p is not None]
         n_ghost = sum(p["x"].shape[1] for _, p in sources)
         if n_imm or n_ghost:
+            total = n_old + n_imm + n_ghost
             for k in names:
                 a = fluid[k]
+                if k in fluid.scratch:  # written before it is read: only its size matters
+                    fluid[k] = be.to_device(np.empty(a.shape[:-1] + (total,), dtype=a.dtype))
+                    continue
                 extra = []
                 if n_imm:
                     extra.append(imm[k])
