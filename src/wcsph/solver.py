@@ -670,10 +670,10 @@ class Output:
 
         self._root(start)
 
-    def _root(self, fn):
-        """``fn()`` on rank 0 (the only process of a plain run); its OSError raised on every rank."""
+    def _agreed(self, fn, here=True):
+        """``fn()`` where ``here``; an OSError it raises is raised on every rank."""
         err = None
-        if self.root:
+        if here:
             try:
                 fn()
             except OSError as e:
@@ -682,6 +682,10 @@ class Output:
             self.par.agree(err)
         elif err is not None:
             raise err
+
+    def _root(self, fn):
+        """``fn()`` on rank 0 (the only process of a plain run); its OSError raised on every rank."""
+        self._agreed(fn, self.root)
 
     def _write_walls(self, name):
         sim = self.sim
@@ -699,13 +703,7 @@ class Output:
             vtk.write_points(self.out / f"{base}.vtu", x, fields)
             return f"{base}.vtu"
         piece = f"{base}_p{par.rank}.vtu"
-        err = None
-        try:
-            if x.shape[1]:
-                vtk.write_points(self.out / piece, x, fields)
-        except OSError as e:
-            err = e
-        par.agree(err)
+        self._agreed(lambda: vtk.write_points(self.out / piece, x, fields), here=x.shape[1] > 0)
         counts = par.comm.gather(x.shape[1], root=0)
         self._root(lambda: vtk.write_pvtu(self.out / f"{base}.pvtu", [f"{base}_p{r}.vtu" for r, c in enumerate(counts)
                                                                       if c], fields))
@@ -776,17 +774,9 @@ class Output:
 
     def checkpoint(self, next_out, next_probe):
         """``checkpoint.npz``: the state, and where the output series stands."""
-        err = None
-        try:
-            self.sim.save_checkpoint(self.out / "checkpoint.npz", {
-                "entries": self.entries, "count": self.count, "iter_max": self.iter_max, "next_out": next_out,
-                "next_probe": next_probe})
-        except OSError as e:
-            err = e
-        if self.par is not None:
-            self.par.agree(err)
-        elif err is not None:
-            raise err
+        self._agreed(lambda: self.sim.save_checkpoint(self.out / "checkpoint.npz", {
+            "entries": self.entries, "count": self.count, "iter_max": self.iter_max, "next_out": next_out,
+            "next_probe": next_probe}))
 
     def close(self, summary):
         def finish():
