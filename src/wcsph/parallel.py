@@ -201,12 +201,20 @@ class Decomposition:
         if np.array_equal(cuts, self.cuts):
             return False
         self.cuts = cuts
-        self.rebalances += 0 if force else 1
+        self.rebalances += 0 if force else 1  # the balanced start is not a rebalance
         return True
 
-    def redistribute(self, fluid, whole=False):
+    def split(self, x):
+        """Balanced cuts for all the particles at positions ``x`` (which every rank holds: at
+        set-up, on a restart), and the mask of this rank's own."""
+        col = self.column(x)
+        self.balance(col, force=True, whole=True)
+        self.calls = 1  # balanced now: the first redistribution need not
+        return self.owner(col) == self.rank
+
+    def redistribute(self, fluid):
         """Drop the ghosts, migrate, rebalance (when due), choose and receive new ghosts, sort.
-        ``whole``: every rank holds every particle (set-up, restart): keep one's own. Returns
+        A set without ``owned`` flags (just made by ``split``) is all this rank's own. Returns
         how many of this rank's own particles left the domain (the sort drops them).
 
         Nothing is compacted on the host: the arriving particles (immigrants, then ghosts)
@@ -217,29 +225,24 @@ class Decomposition:
         names = [k for k in fluid.per_particle() if k != "owned"]
         x = np.asarray(be.to_host(fluid["x"]))
         n_old = x.shape[1]
-        own = (np.asarray(be.to_host(fluid["owned"])) != 0) if ("owned" in fluid.arrays and not whole) \
+        own = (np.asarray(be.to_host(fluid["owned"])) != 0) if "owned" in fluid.arrays \
             else np.ones(n_old, dtype=bool)
         col = self.column(x)
-        due = whole or (self.interval > 0 and self.calls % self.interval == 0)
+        if self.interval > 0 and self.calls % self.interval == 0:
+            self.balance(col[own])
         self.calls += 1
-        if due:
-            self.balance(col if whole else col[own], force=whole, whole=whole)
         dest = self.owner(col)
-        if whole:
-            go = np.zeros(n_old, dtype=bool)
-            stay = dest == self.rank
-            got = []
-        else:  # migration: particles whose column another rank owns now
-            go = own & (dest != self.rank)
-            stay = own & ~go
-            parts = [None] * self.size
-            if go.any():
-                h = {k: np.asarray(be.to_host(fluid[k])) for k in names}
-                for d in np.unique(dest[go]):
-                    sel = np.nonzero(go & (dest == d))[0]
-                    parts[d] = {k: h[k][..., sel] for k in names}
-                self.migrated += int(np.count_nonzero(go))
-            got = [p for p in self.comm.alltoall(parts) if p is not None]
+        # migration: particles whose column another rank owns now
+        go = own & (dest != self.rank)
+        stay = own & ~go
+        parts = [None] * self.size
+        if go.any():
+            h = {k: np.asarray(be.to_host(fluid[k])) for k in names}
+            for d in np.unique(dest[go]):
+                sel = np.nonzero(go & (dest == d))[0]
+                parts[d] = {k: h[k][..., sel] for k in names}
+            self.migrated += int(np.count_nonzero(go))
+        got = [p for p in self.comm.alltoall(parts) if p is not None]
         imm = {k: np.concatenate([p[k] for p in got], axis=-1) for k in names} if got else None
         n_imm = imm["x"].shape[1] if imm else 0
         # ghosts for the other ranks, from the particles this rank owns now (staying and arrived)
@@ -247,8 +250,7 @@ class Decomposition:
         stay_idx = np.nonzero(stay)[0]
         col_stay = col[stay_idx]
         col_imm = self.column(imm["x"]) if n_imm else np.zeros(0, dtype=np.int64)
-        need = [k for k in carried]
-        h = {k: np.asarray(be.to_host(fluid[k])) for k in need}
+        h = {k: np.asarray(be.to_host(fluid[k])) for k in carried}
         sel, parts = {}, [None] * self.size
         for d in range(self.size):
             if d == self.rank:

@@ -156,13 +156,29 @@ class Simulation:
 
         n = fluid_x.shape[1]
         rho = model.initial_density(fluid_x, fluid0["top"], self.P, self.gravity, fluid0["p"])
+        ids = np.arange(n, dtype=np.int64)  # follows the particle
+        if comm is not None and comm.Get_size() > 1:  # every rank built the case: keep one's own
+            if self.open is not None:
+                raise CaseError(f"{case['_source']}: open_boundary: open boundaries run on one process only "
+                                "(buffers create and remove particles); run the case without mpiexec")
+            pc = case["parallel"]
+            try:
+                occupied = np.concatenate([fluid_x, wall0["x"]], axis=1)  # the box with work in it
+                self.par = parallel.Decomposition(comm, self.grid, model.halo_depth(), be, pc["axis"],
+                                                  pc["balance_threshold"], pc["balance_interval"],
+                                                  extent=np.ptp(occupied, axis=1))
+            except ValueError as e:
+                raise CaseError(f"{case['_source']}: parallel.axis: {e}") from None
+            mine = self.par.split(fluid_x)
+            fluid_x, fluid_v, rho, ids = fluid_x[:, mine], fluid_v[:, mine], rho[mine], ids[mine]
+            n = fluid_x.shape[1]
         self.fluid = ParticleSet("fluid", dim, {"x": be.to_device(fluid_x.astype(dtype)),
                                                "v": be.to_device(fluid_v.astype(dtype))})
         for name, kind, scratch in list(model.fluid_fields()) + list(self.integrator.fields):
             self.fluid.add(name, kind, dtype, be, scratch=scratch)
         self.fluid["rho"] = be.to_device(rho.astype(dtype))
         self.fluid["m"] = be.to_device(np.full(n, self.mass, dtype=dtype))
-        self.fluid["id"] = be.to_device(np.arange(n, dtype=np.int64))  # follows the particle
+        self.fluid["id"] = be.to_device(ids)
         if particle_kind is not None:
             self.fluid["kind"] = be.to_device(particle_kind)  # 0 fluid, 1 + k the buffer of open_boundary[k]
         self._placeholders = {"k": be.to_device(np.zeros((1, 1, 1), dtype=dtype)),
@@ -182,21 +198,11 @@ class Simulation:
         self.place_walls(0.0)
         be.sort(self.walls, self.grid)
         be.wrap(self.fluid, self.grid)
-        be.sort(self.fluid, self.grid)
+        if self.par is None:
+            be.sort(self.fluid, self.grid)
+        else:  # ghosts from the other ranks, then sorted with one's own
+            self.par.redistribute(self.fluid)
         model.initialize(self.fluid, self.walls, self.P, self.G, self.mass)
-        if comm is not None and comm.Get_size() > 1:
-            if self.open is not None:
-                raise CaseError(f"{case['_source']}: open_boundary: open boundaries run on one process only "
-                                "(buffers create and remove particles); run the case without mpiexec")
-            pc = case["parallel"]
-            try:
-                occupied = np.concatenate([fluid_x, wall0["x"]], axis=1)  # the box with work in it
-                self.par = parallel.Decomposition(comm, self.grid, model.halo_depth(), be, pc["axis"],
-                                                  pc["balance_threshold"], pc["balance_interval"],
-                                                  extent=np.ptp(occupied, axis=1))
-            except ValueError as e:
-                raise CaseError(f"{case['_source']}: parallel.axis: {e}") from None
-            self.par.redistribute(self.fluid, whole=True)  # every rank built all: keep one's own
         self.probes = probes.PointProbes(self)
 
         self.t = 0.0
@@ -488,16 +494,19 @@ class Simulation:
         for k in self.fluid.per_particle():
             if k not in arrays and k != "owned":
                 raise CaseError(f"{source}: the checkpoint lacks the fluid field {k!r}")
-        self.fluid.n = int(meta["n"])
         self.fluid.arrays.pop("owned", None)
+        if self.par is not None:  # any number of ranks: each keeps its own of the whole
+            mine = self.par.split(arrays["x"])
+            arrays = {k: a[..., mine] for k, a in arrays.items()}
+        self.fluid.n = int(arrays["x"].shape[1])
         for k, a in arrays.items():
             self.fluid[k] = be.to_device(np.ascontiguousarray(a))
         for k in [k for k in self.fluid.arrays if k.startswith("_")]:
             del self.fluid.arrays[k]  # the sort's spare arrays, sized for the old count
         self.t, self.steps, self.evaluations = meta["t"], meta["steps"], meta["evaluations"]
         self.dropped, self.vmax, self.amax = meta["dropped"], meta["vmax"], meta["amax"]
-        if self.par is not None:  # any number of ranks: each keeps its own of the whole
-            self.par.redistribute(self.fluid, whole=True)
+        if self.par is not None:
+            self.par.redistribute(self.fluid)
             if self.par.rank != 0:
                 self.dropped = 0  # counted once, on rank 0
         self.integrator.restore(meta["integrator"])
