@@ -2,19 +2,22 @@
 halo exchange, migration and load balance.
 
 Launched with ``mpiexec -n N wcsph run CASE`` (or ``srun``), each rank owns one slab of the
-domain along one axis (the longest, by default), cut at cell boundaries of the global grid,
-which every rank shares. A rank holds its own particles and, after them in its arrays but
-sorted with them into one cell list, **ghost** copies of the particles of the other ranks
-within ``depth`` kernel supports of its slab (plus one column of cells for round-off):
+domain along one axis (the longest side of the box the particles occupy, by default), cut at
+cell boundaries of the global grid, which every rank shares. A rank holds its own particles
+and, after them in its arrays but sorted with them into one cell list, **ghost** copies of
+the particles of the other ranks within one kernel support of its slab (plus one column of
+cells for round-off). No loop and no physics term knows about any of it:
 
-* ``depth`` is the number of neighbour passes in one derivative evaluation (the model's
-  ``halo_depth``): the passes run over the ghosts too, so a field a later pass reads of a
-  neighbour (the summation density, a boundary element's pressure, the CSPM matrix) is right
-  on every ghost within one support of the slab. The fields each pass writes are then not
-  exchanged between passes: one message per neighbour rank per evaluation.
 * **every evaluation** (each integrator stage, each midpoint iteration) first refreshes the
   ghosts' state (x, v, rho) from their owners (``update``): ghosts are advanced by the
   integrator's maps like every particle, but only their owners' values count.
+* **between passes**, a field a later pass reads of a neighbour is refreshed the same way
+  (``Halo``, which the model's ``derivatives`` calls): the summation density and what the
+  EOS makes of it on the ghosts; the no-slip velocity and the boundary pressure of the walls
+  near another rank's slab (``update_walls``: every rank holds every wall, but its own fluid
+  reaches only one support beyond its slab, so a wall's value comes from the rank whose slab
+  holds it). The passes run over the ghosts as well, and what they compute there is
+  overwritten.
 * **once per step**, before the sort (``redistribute``): ghosts are dropped, particles that
   crossed a cut migrate to their new owner, the cuts move when the particle counts are out of
   balance by more than ``parallel.balance_threshold`` (checked every
@@ -88,13 +91,27 @@ def select_gpu(comm):
     return me % gpus if gpus else None
 
 
+class Halo:
+    """What a model's ``derivatives`` calls between its passes in a decomposed run: the
+    ghosts' ``fluid(names)`` and the walls' ``walls(pset, names)`` from their owners."""
+
+    def __init__(self, par, fluid):
+        self.par, self._fluid = par, fluid
+
+    def fluid(self, names):
+        self.par.update(self._fluid, names)
+
+    def walls(self, walls, names):
+        self.par.update_walls(walls, names)
+
+
 class Decomposition:
     """Slabs along ``axis`` of ``grid``'s real cells for the ranks of ``comm``; ``depth``
     kernel supports of ghosts (``Grid.reach`` cells each). ``axis="auto"``: the axis along
     which ``extent`` (the size of the box the particles occupy) is longest: the domain above
     an open tank is room for splashes, not work to share."""
 
-    def __init__(self, comm, grid, depth, backend, axis="auto", balance_threshold=0.1, balance_interval=20,
+    def __init__(self, comm, grid, backend, axis="auto", balance_threshold=0.1, balance_interval=20,
                  extent=None):
         from mpi4py import MPI
 
@@ -115,8 +132,8 @@ class Decomposition:
         self.lo = float(lo[self.axis])
         self.width = float(grid.cell[self.axis])
         self.periodic = bool(grid.periodic[self.axis])
-        self.depth = int(depth)
-        self.halo = self.depth * grid.reach + 1  # columns; the 1: a cell id rounded the other way
+        self.halo = grid.reach + 1  # columns: one support, and one for a cell id rounded the other way
+        self._walls = (None, None, None)  # (key, send, receive) of the wall sync lists
         self.threshold = float(balance_threshold)
         self.interval = int(balance_interval)
         self.cuts = np.linspace(0, self.ncol, self.size + 1).round().astype(np.int64)
@@ -316,22 +333,48 @@ class Decomposition:
 
     def update(self, fluid, names):
         """Ghosts' ``names`` fields from their owners: one message each way per neighbour."""
-        if not self.send and not self.recv:
+        self._exchange(fluid, names, self.send, self.recv)
+
+    def update_walls(self, walls, names):
+        """The walls' ``names`` fields near another rank's slab from the rank whose slab holds
+        them (a wall pass of this rank sees its own fluid within one support only). Every rank
+        holds every wall in the same order (same geometry, same sort), so the lists follow
+        from the positions alone, on both sides; they are made again when the walls move (a
+        new ``x``), for another set (a body's loads) or after a rebalance."""
+        key = (id(walls), id(walls["x"]), walls.n, self.cuts.tobytes())
+        if self._walls[0] != key:
+            col = self.column(self.backend.to_host(walls["x"]))
+            owner = self.owner(col)
+            send, recv = [], []
+            for d in range(self.size):
+                if d != self.rank:
+                    out = np.nonzero((owner == self.rank) & self._near(col, d))[0]
+                    into = np.nonzero((owner == d) & self._near(col, self.rank))[0]
+                    if out.size:
+                        send.append((d, self.backend.index(out)))
+                    if into.size:
+                        recv.append((d, self.backend.index(into)))
+            self._walls = (key, send, recv)
+        self._exchange(walls, names, self._walls[1], self._walls[2])
+
+    def _exchange(self, pset, names, send, recv):
+        """``names`` of ``pset`` at the ``send`` lists to their ranks, into the ``recv`` lists."""
+        if not send and not recv:
             return
         t0 = time.perf_counter()
         be = self.backend
-        names = [k for k in names if k in fluid.arrays]
-        arrays = [fluid[k] for k in names]
+        names = [k for k in names if k in pset.arrays]
+        arrays = [pset[k] for k in names]
         dtype = np.dtype(arrays[0].dtype)
         rows = [int(np.prod(a.shape[:-1])) for a in arrays]
         width = sum(rows)
         reqs, inbox = [], []
-        for d, idx in self.recv:
+        for d, idx in recv:
             buf = np.empty((width, idx.size), dtype=dtype)
             reqs.append(self.comm.Irecv(buf, source=d, tag=11))
             inbox.append((idx, buf))
         outbox = []
-        for d, idx in self.send:
+        for d, idx in send:
             buf = np.empty((width, idx.size), dtype=dtype)  # C order: MPI sends the memory as it lies
             row = 0
             for a, r in zip(arrays, rows):

@@ -164,7 +164,7 @@ class Simulation:
             pc = case["parallel"]
             try:
                 occupied = np.concatenate([fluid_x, wall0["x"]], axis=1)  # the box with work in it
-                self.par = parallel.Decomposition(comm, self.grid, model.halo_depth(), be, pc["axis"],
+                self.par = parallel.Decomposition(comm, self.grid, be, pc["axis"],
                                                   pc["balance_threshold"], pc["balance_interval"],
                                                   extent=np.ptp(occupied, axis=1))
             except ValueError as e:
@@ -174,6 +174,7 @@ class Simulation:
             n = fluid_x.shape[1]
         self.fluid = ParticleSet("fluid", dim, {"x": be.to_device(fluid_x.astype(dtype)),
                                                "v": be.to_device(fluid_v.astype(dtype))})
+        self.halo = parallel.Halo(self.par, self.fluid) if self.par is not None else None
         for name, kind, scratch in list(model.fluid_fields()) + list(self.integrator.fields):
             self.fluid.add(name, kind, dtype, be, scratch=scratch)
         self.fluid["rho"] = be.to_device(rho.astype(dtype))
@@ -283,7 +284,7 @@ class Simulation:
         self.evaluations += 1
         if self.par is not None:
             self.par.update(self.fluid, parallel.STATE)
-        self.model.derivatives(self.fluid, self.walls, P, self.G)
+        self.model.derivatives(self.fluid, self.walls, P, self.G, self.halo)
 
     def reduce(self, fn, state, P):
         """A reduction map of the integrator (``backend.make_reduce``): (sum, sum, max) over
@@ -352,7 +353,7 @@ class Simulation:
         if par is not None:
             par.update(fl, parallel.STATE)
         saved = {k: be.to_host(fl[k]).copy() for k in fl.per_particle() if k in fl.scratch or k == "rho"}
-        self.model.derivatives(fl, self.walls, self.P, self.G)
+        self.model.derivatives(fl, self.walls, self.P, self.G, self.halo)
         mine = be.to_host(fl["owned"]) != 0 if par is not None else slice(None)
         x, m, a_all = (a.astype(float)[..., mine] for a in self.host(fl, "x", "m", "dvdt"))
         out = {}
@@ -362,7 +363,7 @@ class Simulation:
             rest = ParticleSet("walls", self.dim, {k: be.to_device(np.ascontiguousarray(a[..., keep]))
                                                     for k, a in host.items()})
             be.sort(rest, self.grid)
-            self.model.derivatives(fl, rest, self.P, self.G)
+            self.model.derivatives(fl, rest, self.P, self.G, self.halo)
             f = m * (a_all - be.to_host(fl["dvdt"]).astype(float)[..., mine])  # on the fluid, from the body
             force = -f.sum(axis=1)
             r = x - self.bodies.reference(b, self.t)[:, None]

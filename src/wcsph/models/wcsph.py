@@ -327,30 +327,31 @@ class WCSPH:
         return self._placeholders[name]
 
     # ------------------------------------------------------------------ per evaluation
-    def derivatives(self, fluid, walls, P, G):
-        """Drho/Dt (continuity) or rho (summation), and Dv/Dt of every fluid particle."""
+    def derivatives(self, fluid, walls, P, G, halo=None):
+        """Drho/Dt (continuity) or rho (summation), and Dv/Dt of every fluid particle.
+        ``halo`` (a decomposed run's ``parallel.Halo``): after each pass whose output a later
+        pass reads of a neighbour, the ghosts' (or the walls') copies of it are refreshed
+        from their owners, so that one kernel support of ghosts is enough."""
         f = self.view(fluid, self.fluid_view)
         w = self.view(walls, self.wall_view)
         if self.continuity:
             self.initialize_map(f, P)
         else:
             self.density_pass(f, f, w, P, G)
+            if halo is not None:
+                halo.fluid(("rho", "p", "pr", "vol", "c"))
         if self.noslip_pass is not None and walls.n:  # the walls' terms read the no-slip velocity
             self.noslip_pass(self.view(walls, NoSlipWallView), f, f, P, G)
+            if halo is not None:
+                halo.walls(walls, ("v_ext",))
             w = w._replace(v=walls["v_ext"])
         if self.boundary_pass is not None and walls.n:
             self.boundary_pass(w, f, f, P, G)
+            if halo is not None:
+                halo.walls(walls, ("p", "rho"))
         if self.cspm_pass is not None:
             self.cspm_pass(f, f, w, P, G)
         self.interaction(f, f, w, P, G)
-
-    def halo_depth(self):
-        """Neighbour passes chained in one evaluation (a decomposed run's ghosts reach this
-        many kernel supports, so that every field a pass reads of a neighbour is right):
-        the density summation, the no-slip wall velocity, the boundary interpolation, the
-        CSPM matrix and the interaction, as the case has them."""
-        return 1 + sum(p is not None for p in (self.density_pass, self.noslip_pass, self.boundary_pass,
-                                               self.cspm_pass))
 
     def refresh(self, fluid, P):
         """p and V from the current density (continuity density: the last evaluation may have
