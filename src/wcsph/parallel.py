@@ -106,8 +106,8 @@ class Halo:
 
 
 class Decomposition:
-    """Slabs along ``axis`` of ``grid``'s real cells for the ranks of ``comm``; ``depth``
-    kernel supports of ghosts (``Grid.reach`` cells each). ``axis="auto"``: the axis along
+    """Slabs along ``axis`` of ``grid``'s real cells for the ranks of ``comm``, with one
+    kernel support of ghosts (``Grid.reach`` cells). ``axis="auto"``: the axis along
     which ``extent`` (the size of the box the particles occupy) is longest: the domain above
     an open tank is room for splashes, not work to share."""
 
