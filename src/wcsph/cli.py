@@ -15,6 +15,7 @@ EXAMPLES = """examples:
   wcsph run my_case.toml -o runs/mine --dp 0.005 --end-time 0.5
   wcsph run dam_break_2d_bi --set model.ViscousTerm=\"PhysicalViscosity_MVT\" --set time.cfl=0.2
   wcsph run dam_break_3d --backend cuda        on an NVIDIA GPU (pip install -e ".[cuda]")
+  mpiexec -n 4 wcsph run dam_break_3d          on 4 MPI ranks (pip install -e ".[mpi]"; docs/scaling.md)
   wcsph plot runs/dam_break_2d_bi              PNG plots of the probes (energies, sensors, gauges)
 
 Ctrl-C (or SIGTERM) stops a run after the current step and writes its state; exit codes:
