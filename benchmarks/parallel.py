@@ -2,6 +2,7 @@
 
     python benchmarks/parallel.py                      # strong: 100 k and 400 k, weak: 1-8 ranks
     python benchmarks/parallel.py --sizes 100000 --rounds 2 --no-weak
+    python benchmarks/parallel.py --balance-demo --sizes 100000   # balance by counts vs by times
 
 **Strong scaling** (the 2D classic dam break at each size): 1 rank x 2 threads, 2 ranks x 1
 thread and 1 rank x 1 thread, alternated over ``--rounds`` rounds (a busy host moves one
@@ -50,10 +51,11 @@ def worker(args):
         from _measure import COLUMN
         from wcsph.config import load
 
-        case = load("dam_break_2d", [("dp", (COLUMN["dam_break_2d"] / args.n) ** 0.5)])
+        case = load("dam_break_2d", [("dp", (COLUMN["dam_break_2d"] / args.n) ** 0.5),
+                                     ("parallel.balance", args.balance), ("parallel.axis", "x")])
     sim = wcsph.Simulation(case)
     par = sim.par
-    for _ in range(3):  # compile or load the loops
+    for _ in range(args.warm):  # compile or load the loops (and let the balancer settle)
         sim.step(sim.time_step())
     comm = par.comm if par is not None else None
     per, shares, exchange, sent = [], [], [], []
@@ -78,21 +80,50 @@ def worker(args):
         med = statistics.median
         print(json.dumps({"n": n, "step_s": med(per), "exchange_share": med(shares) if shares else 0.0,
                           "exchange_s": med(exchange) if exchange else 0.0, "sent_bytes": med(sent) if sent else 0.0,
-                          "ranks": par.size if par else 1}), flush=True)
+                          "ranks": par.size if par else 1, "cuts": [int(c) for c in par.cuts] if par else [],
+                          "rebalances": par.rebalances if par else 0}), flush=True)
 
 
-def launch(ranks, threads, n, steps, windows, weak=False):
+def launch(ranks, threads, n, steps, windows, weak=False, balance="count", warm=3, pinned=False):
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
-    cmd = [sys.executable, __file__, "--worker", "--n", str(n), "--steps", str(steps), "--windows", str(windows)]
+    cmd = [sys.executable, __file__, "--worker", "--n", str(n), "--steps", str(steps), "--windows", str(windows),
+           "--balance", balance, "--warm", str(warm)]
     if weak:
         cmd.append("--weak")
-    if ranks > 1:
-        mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or "mpiexec"
+    mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or "mpiexec"
+    if pinned:  # rank r on core r (MPMD form of mpiexec)
+        full = [mpiexec]
+        for r in range(ranks):
+            full += (([":"] if r else []) + ["-n", "1", "taskset", "-c", str(r)] + cmd)
+        cmd = full
+    elif ranks > 1:
         cmd = [mpiexec, "-n", str(ranks)] + cmd
     r = subprocess.run(cmd, capture_output=True, text=True, env=env)
     if r.returncode:
         raise SystemExit(f"{' '.join(cmd)} failed:\n{r.stderr[-2000:]}")
     return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def balance_demo(args):
+    """``balance = "count"`` against ``"time"`` when one rank's core is shared with a busy
+    process: the count balance keeps half the particles on the slowed rank, the time balance
+    moves the cut until both ranks take as long."""
+    n = args.sizes[0]
+    print(f"\n{n} particles, 2 ranks pinned to cores 0 and 1, a busy process on core 0 too")
+    print("\n| balance | step (ms), least over rounds | all rounds (ms) | cuts at the end | rebalances |")
+    print("|---|---|---|---|---|")
+    busy = subprocess.Popen(["taskset", "-c", "0", sys.executable, "-c", "while True: pass"])
+    try:
+        got = {"count": [], "time": []}
+        for _ in range(args.rounds):
+            for b in got:
+                got[b].append(launch(2, 1, n, args.steps, args.windows, balance=b, warm=120, pinned=True))
+    finally:
+        busy.kill()
+    for b, rs in got.items():
+        best = min(rs, key=lambda r: r["step_s"])
+        rounds = ", ".join(f"{r['step_s'] * 1e3:.1f}" for r in rs)
+        print(f"| {b} | {best['step_s'] * 1e3:.1f} | {rounds} | {best['cuts']} | {best['rebalances']} |", flush=True)
 
 
 def main():
@@ -106,6 +137,11 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--per-rank", type=int, default=50_000)
     ap.add_argument("--no-weak", action="store_true")
+    ap.add_argument("--balance", default="count", help=argparse.SUPPRESS)
+    ap.add_argument("--warm", type=int, default=3, help=argparse.SUPPRESS)
+    ap.add_argument("--no-strong", action="store_true")
+    ap.add_argument("--balance-demo", action="store_true",
+                    help="2 ranks pinned to the 2 cores, a busy process beside rank 0: cuts by counts vs by times")
     args = ap.parse_args()
     if args.worker:
         return worker(args)
@@ -113,7 +149,9 @@ def main():
 
     print(f"host: {platform.processor() or platform.machine()}, {os.cpu_count()} cores; "
           f"{args.rounds} rounds, {args.windows} windows of {args.steps} steps")
-    configs = [(1, 2), (2, 1), (1, 1)]
+    if args.balance_demo:
+        return balance_demo(args)
+    configs = [] if args.no_strong else [(1, 2), (2, 1), (1, 1)]
     print("\n| particles | ranks x threads | step (ms), least over rounds | all rounds (ms) | exchange share |")
     print("|---|---|---|---|---|")
     for n in args.sizes:

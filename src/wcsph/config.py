@@ -115,10 +115,12 @@ SCHEMA = {
     }, REQUIRED, None),
     "probes": ([PROBE], [], None),
     # a run on several MPI ranks (``mpiexec -n N wcsph run``): slabs along ``axis`` (auto: the
-    # longest), cuts moved when the particles per rank differ from the mean by more than
-    # ``balance_threshold``, checked every ``balance_interval`` steps (0: never)
+    # longest), cuts moved when the particles per rank (``balance = "time"``: the seconds of
+    # work per rank) differ from the mean by more than ``balance_threshold``, checked every
+    # ``balance_interval`` steps (0: never)
     "parallel": ({
         "axis": ("str", "auto", one_of("auto", "x", "y", "z")),
+        "balance": ("str", "count", one_of("count", "time")),
         "balance_threshold": ("float", 0.1, POS),
         "balance_interval": ("int", 20, NONNEG),
     }, {}, None),

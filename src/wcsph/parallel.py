@@ -112,7 +112,7 @@ class Decomposition:
     an open tank is room for splashes, not work to share."""
 
     def __init__(self, comm, grid, backend, axis="auto", balance_threshold=0.1, balance_interval=20,
-                 extent=None):
+                 extent=None, balance="count"):
         from mpi4py import MPI
 
         self.MPI = MPI
@@ -136,6 +136,10 @@ class Decomposition:
         self._walls = (None, None, None)  # (key, send, receive) of the wall sync lists
         self.threshold = float(balance_threshold)
         self.interval = int(balance_interval)
+        self.by_time = balance == "time"
+        self._busy = 0.0  # seconds outside exchanges and reductions since the last balance check
+        self._mark = None  # (clock, communication time) at the end of the last redistribution
+        self.reduce_time = 0.0  # seconds in the reductions (the step's checks, probes, residuals)
         self.cuts = np.linspace(0, self.ncol, self.size + 1).round().astype(np.int64)
         self.send, self.recv = [], []  # (rank, index list) for this step
         self.n_owned = 0
@@ -171,19 +175,24 @@ class Decomposition:
 
     # ------------------------------------------------------------------ reductions
     def sum(self, values):
-        a = np.ascontiguousarray(values, dtype=np.float64)
-        out = np.empty_like(a)
-        self.comm.Allreduce(a, out, op=self.MPI.SUM)
-        return out
+        return self._allreduce(values, self.MPI.SUM)
 
     def max(self, values):
+        return self._allreduce(values, self.MPI.MAX)
+
+    def _allreduce(self, values, op):
+        t0 = time.perf_counter()
         a = np.ascontiguousarray(values, dtype=np.float64)
         out = np.empty_like(a)
-        self.comm.Allreduce(a, out, op=self.MPI.MAX)
+        self.comm.Allreduce(a, out, op=op)
+        self.reduce_time += time.perf_counter() - t0  # mostly waiting for the slowest rank
         return out
 
     def any(self, flag):
-        return bool(self.comm.allreduce(bool(flag), op=self.MPI.LOR))
+        t0 = time.perf_counter()
+        out = bool(self.comm.allreduce(bool(flag), op=self.MPI.LOR))
+        self.reduce_time += time.perf_counter() - t0
+        return out
 
     def agree(self, error):
         """Raise on every rank if ``error`` (an exception or None) is set on any: a file one
@@ -200,7 +209,12 @@ class Decomposition:
     def balance(self, col, force=False, whole=False):
         """Move the cuts to equal particle counts per rank (at column boundaries) when the
         imbalance max/mean - 1 exceeds the threshold (``force``: always). ``whole``: every
-        rank holds every particle (set-up, restart), so the counts are not summed."""
+        rank holds every particle (set-up, restart), so the counts are not summed.
+
+        ``balance = "time"``: each column's particles weigh what a particle costs on the rank
+        that holds it now (its seconds outside the exchanges since the last check, over its
+        particles), and the imbalance is that of those seconds: a rank whose particles are
+        dearer (walls, a busier node) gets fewer of them."""
         counts = np.bincount(np.clip(col, 0, self.ncol - 1), minlength=self.ncol).astype(np.float64)
         if not whole:
             counts = self.sum(counts)
@@ -208,6 +222,14 @@ class Decomposition:
             self.cuts[1:] > self.cuts[:-1])
         mean = counts.sum() / self.size
         self.imbalance = float(per_rank.max() / mean - 1.0) if mean > 0 else 0.0
+        if self.by_time and not whole:
+            busy = np.asarray(self.comm.allgather(self._busy))
+            self._busy = 0.0
+            if busy.sum() > 0:
+                cost = np.where(per_rank > 0, busy / np.maximum(per_rank, 1.0), 0.0)
+                cost[per_rank == 0] = cost[per_rank > 0].mean() if (per_rank > 0).any() else 1.0
+                counts = counts * cost[self.owner(np.arange(self.ncol))]
+                self.imbalance = float(busy.max() / busy.mean() - 1.0)
         if not force and self.imbalance <= self.threshold:
             return False
         cum = np.cumsum(counts)
@@ -238,6 +260,8 @@ class Decomposition:
         are appended, and the sort drops the old ghosts and the emigrants as it gathers (a
         boolean compaction of every field cost 3 ms a step at 50 k particles a rank)."""
         t0 = time.perf_counter()
+        if self._mark is not None:  # the work since the last redistribution, for balance = "time"
+            self._busy += (t0 - self._mark[0]) - (self.exchange_time + self.reduce_time - self._mark[1])
         be, grid = self.backend, self.grid
         names = [k for k in fluid.per_particle() if k != "owned"]
         x = np.asarray(be.to_host(fluid["x"]))
@@ -329,6 +353,7 @@ class Decomposition:
         lost = int(np.count_nonzero(inv[mine] >= n_in))
         self.n_owned = int(np.count_nonzero(mine)) - lost
         self.exchange_time += time.perf_counter() - t0 - t_sort
+        self._mark = (time.perf_counter(), self.exchange_time + self.reduce_time)
         return lost
 
     def update(self, fluid, names):

@@ -166,7 +166,7 @@ class Simulation:
                 occupied = np.concatenate([fluid_x, wall0["x"]], axis=1)  # the box with work in it
                 self.par = parallel.Decomposition(comm, self.grid, be, pc["axis"],
                                                   pc["balance_threshold"], pc["balance_interval"],
-                                                  extent=np.ptp(occupied, axis=1))
+                                                  extent=np.ptp(occupied, axis=1), balance=pc["balance"])
             except ValueError as e:
                 raise CaseError(f"{case['_source']}: parallel.axis: {e}") from None
             mine = self.par.split(fluid_x)
