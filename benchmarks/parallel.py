@@ -62,7 +62,7 @@ def worker(args):
     for _ in range(args.windows):
         if comm is not None:
             comm.Barrier()
-        e0 = (par.exchange_time, par.update_time, par.sent_bytes) if par else (0.0, 0.0, 0)
+        e0 = (par.exchange_time, par.sent_bytes) if par else (0.0, 0)
         t0 = time.perf_counter()
         for _ in range(args.steps):
             sim.step(sim.time_step())
@@ -74,7 +74,7 @@ def worker(args):
             ex = par.exchange_time - e0[0]
             shares.append(float(par.max([ex / elapsed])[0]))
             exchange.append(float(par.max([ex / args.steps])[0]))
-            sent.append(float(par.max([(par.sent_bytes - e0[2]) / args.steps])[0]))
+            sent.append(float(par.max([(par.sent_bytes - e0[1]) / args.steps])[0]))
     n = sim.n_fluid()  # a collective: every rank calls it
     if par is None or par.rank == 0:
         med = statistics.median

@@ -147,7 +147,6 @@ class Decomposition:
         self.rebalances = 0
         self.migrated = 0  # particles that moved to another rank (crossing a cut, or a cut moving)
         self.exchange_time = 0.0  # seconds in the halo exchanges and redistributions (not the sort)
-        self.update_time = 0.0  # of which in the halo updates (every evaluation)
         self.sent_bytes = 0  # by this rank's halo updates
         self.imbalance = 0.0  # max / mean - 1 of the particles per rank, at the last check
 
@@ -264,7 +263,11 @@ class Decomposition:
             self._busy += (t0 - self._mark[0]) - (self.exchange_time + self.reduce_time - self._mark[1])
         be, grid = self.backend, self.grid
         names = [k for k in fluid.per_particle() if k != "owned"]
-        x = np.asarray(be.to_host(fluid["x"]))
+        # what a particle that moves or a ghost carries (the scratch fields are only sized):
+        # views on the CPU, one copy each on CUDA
+        carried = [k for k in fluid.sorted_fields() if k in names]
+        h = {k: np.asarray(be.to_host(fluid[k])) for k in carried}
+        x = h["x"]
         n_old = x.shape[1]
         own = (np.asarray(be.to_host(fluid["owned"])) != 0) if "owned" in fluid.arrays \
             else np.ones(n_old, dtype=bool)
@@ -278,20 +281,17 @@ class Decomposition:
         stay = own & ~go
         parts = [None] * self.size
         if go.any():
-            h = {k: np.asarray(be.to_host(fluid[k])) for k in names}
             for d in np.unique(dest[go]):
                 sel = np.nonzero(go & (dest == d))[0]
-                parts[d] = {k: h[k][..., sel] for k in names}
+                parts[d] = {k: h[k][..., sel] for k in carried}
             self.migrated += int(np.count_nonzero(go))
         got = [p for p in self.comm.alltoall(parts) if p is not None]
-        imm = {k: np.concatenate([p[k] for p in got], axis=-1) for k in names} if got else None
+        imm = {k: np.concatenate([p[k] for p in got], axis=-1) for k in carried} if got else None
         n_imm = imm["x"].shape[1] if imm else 0
         # ghosts for the other ranks, from the particles this rank owns now (staying and arrived)
-        carried = [k for k in fluid.sorted_fields() if k in names]  # what a ghost needs (not scratch)
         stay_idx = np.nonzero(stay)[0]
         col_stay = col[stay_idx]
         col_imm = self.column(imm["x"]) if n_imm else np.zeros(0, dtype=np.int64)
-        h = {k: np.asarray(be.to_host(fluid[k])) for k in carried}
         sel, parts = {}, [None] * self.size
         for d in range(self.size):
             if d == self.rank:
@@ -305,21 +305,15 @@ class Decomposition:
         got = self.comm.alltoall(parts)
         sources = [(d, p) for d, p in enumerate(got) if p is not None]
         n_ghost = sum(p["x"].shape[1] for _, p in sources)
-        if n_imm or n_ghost:
-            total = n_old + n_imm + n_ghost
+        total = n_old + n_imm + n_ghost
+        if total > n_old:
             for k in names:
                 a = fluid[k]
                 if k in fluid.scratch:  # written before it is read: only its size matters
                     fluid[k] = be.to_device(np.empty(a.shape[:-1] + (total,), dtype=a.dtype))
                     continue
-                extra = []
-                if n_imm:
-                    extra.append(imm[k])
-                if n_ghost:
-                    extra += ([p[k] for _, p in sources] if k in carried else
-                              [np.zeros(a.shape[:-1] + (n_ghost,), dtype=a.dtype)])
-                fluid[k] = be.to_device(np.concatenate([np.asarray(be.to_host(a))] + extra, axis=-1))
-        total = n_old + n_imm + n_ghost
+                extra = ([imm[k]] if n_imm else []) + [p[k] for _, p in sources]
+                fluid[k] = be.to_device(np.concatenate([h[k]] + extra, axis=-1))
         flag = np.zeros(total, dtype=np.uint8)
         flag[stay_idx] = 1
         flag[n_old:n_old + n_imm] = 1
@@ -414,9 +408,7 @@ class Decomposition:
             for a, r in zip(arrays, rows):
                 be.put(a, idx, buf[row:row + r].reshape(a.shape[:-1] + (idx.size,)))
                 row += r
-        dt = time.perf_counter() - t0
-        self.exchange_time += dt
-        self.update_time += dt
+        self.exchange_time += time.perf_counter() - t0
 
     def gather(self, arrays):
         """Every rank's own particles' ``arrays`` (dict of host arrays) concatenated on rank 0

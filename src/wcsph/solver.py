@@ -417,15 +417,16 @@ class Simulation:
         self.t += dt
         self.steps += 1
         self.place_walls(self.t)  # moving walls where they are at the new time (output, next step)
-        if (self.fluid.n if par is None else self.n_fluid()) == 0:
-            raise SimulationError(f"every fluid particle has left the domain by t = {self.t:.6g} s "
-                                  f"(step {self.steps}); enlarge [domain] or close the tank")
         if par is None:
+            n = self.fluid.n
             vmax2, amax2, bad = be.check(self.fluid)
         else:  # over every rank's own particles: every rank takes the same step next
             vmax2, amax2, bad = be.check(self.fluid, self.fluid["owned"])
             vmax2, amax2 = par.max([vmax2, amax2])
-            bad = int(par.sum([bad])[0])
+            bad, n = (int(c) for c in par.sum([bad, par.n_owned]))
+        if n == 0:
+            raise SimulationError(f"every fluid particle has left the domain by t = {self.t:.6g} s "
+                                  f"(step {self.steps}); enlarge [domain] or close the tank")
         self.vmax, self.amax = math.sqrt(vmax2), math.sqrt(amax2)
         if bad:
             raise SimulationError(f"{bad} fluid particles have a non-finite position, velocity or "

@@ -311,81 +311,58 @@ class CpuBackend:
         were dropped. Each field is gathered into a spare array kept from the previous sort
         (``_spare_NAME``), which then becomes the next spare: no allocation per step.
         ``drop``: flags (uint8) of particles to drop as well (a decomposed run's old ghosts
-        and emigrants); the fields are then gathered at their new size directly."""
-        if drop is not None:
-            return self._sort_dropping(pset, grid, drop)
+        and emigrants)."""
         g = grid.view()
         x = pset["x"]
         origin, inv_cell = grid.geometry(x.dtype.type)
         n = pset.n
         if "cell" not in pset.arrays:
             pset["cell"] = np.empty(n, dtype=np.int64)  # gathered too: the loops read it by i
-            pset["start"] = np.empty(g.ncells + 2, dtype=np.uint64)
-        cell, start = pset["cell"], pset["start"]
-        perm = self._spare(pset, "_perm", cell)
-        names = pset.sorted_fields()
-        outs = [self._spare(pset, "_spare_" + k, pset[k]) for k in names]
-        if n < SERIAL_BELOW:
-            _sort_small(x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell, start, perm,
-                        tuple((pset[k], out) for k, out in zip(names, outs)))
-        else:
-            _cell_ids(x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell)
-            _counting_sort(cell, g.ncells, start, perm)
-            for k, out in zip(names, outs):
-                (_gather1 if out.ndim == 1 else _gather2)(pset[k], perm, out)
-        for k, out in zip(names, outs):
-            pset["_spare_" + k] = pset[k]
-            pset[k] = out
-        n_in = int(start[g.ncells])
-        dropped = n - n_in
-        if dropped:
-            for k in pset.per_particle():
-                pset[k] = np.ascontiguousarray(pset[k][..., :n_in])
-            pset.n = n_in
-        return dropped
-
-    def _sort_dropping(self, pset, grid, drop):
-        g = grid.view()
-        x = pset["x"]
-        origin, inv_cell = grid.geometry(x.dtype.type)
-        n = pset.n
-        if "cell" not in pset.arrays:
-            pset["cell"] = np.empty(n, dtype=np.int64)
         if "start" not in pset.arrays:
             pset["start"] = np.empty(g.ncells + 2, dtype=np.uint64)
         cell, start = pset["cell"], pset["start"]
-        perm = self._spare(pset, "_perm", cell)
+        perm = self._spare(pset, "_perm", cell.shape, cell.dtype)
+        names = pset.sorted_fields()
+        if drop is None and n < SERIAL_BELOW:  # one fused call; a particle rarely leaves
+            outs = [self._spare(pset, "_spare_" + k, pset[k].shape, pset[k].dtype) for k in names]
+            _sort_small(x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell, start, perm,
+                        tuple((pset[k], out) for k, out in zip(names, outs)))
+            self._swap(pset, names, outs)
+            n_in = int(start[g.ncells])
+            if n_in < n:
+                for k in pset.per_particle():
+                    pset[k] = np.ascontiguousarray(pset[k][..., :n_in])
+                pset.n = n_in
+            return n - n_in
         with _threads_for(n):
             _cell_ids(x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell)
-            _drop_cells(cell, drop, g.ncells)
+            if drop is not None:
+                _drop_cells(cell, drop, g.ncells)
         _counting_sort(cell, g.ncells, start, perm)
-        n_in = int(start[g.ncells])
-        fields = pset.sorted_fields()
-        scratch = [k for k in pset.per_particle() if k not in fields]
+        n_in = int(start[g.ncells])  # the dropped ones sort last: gather the first n_in
+        scratch = [k for k in pset.per_particle() if k not in names]
+        outs = [self._spare(pset, "_spare_" + k, pset[k].shape[:-1] + (n_in,), pset[k].dtype) for k in names]
         with _threads_for(n_in):
-            for k in fields:
-                a = pset[k]
-                out = pset.arrays.get("_spare_" + k)
-                if out is None or out.shape != a.shape[:-1] + (n_in,) or out.dtype != a.dtype:
-                    out = np.empty(a.shape[:-1] + (n_in,), dtype=a.dtype)
-                (_gather1 if a.ndim == 1 else _gather2)(a, perm, out)
-                pset["_spare_" + k] = a
-                pset[k] = out
-        for k in scratch:  # written before they are read: only their size matters
-            a = pset[k]
-            if a.shape[-1] != n_in:
-                spare = pset.arrays.get("_spare_" + k)
-                fits = spare is not None and spare.shape == a.shape[:-1] + (n_in,)
-                pset["_spare_" + k] = a
-                pset[k] = spare if fits else np.empty(a.shape[:-1] + (n_in,), dtype=a.dtype)
-        pset.n = n_in
+            for k, out in zip(names, outs):
+                (_gather1 if out.ndim == 1 else _gather2)(pset[k], perm, out)
+        self._swap(pset, names, outs)
+        if n_in < n:
+            for k in scratch:  # written before they are read: only their size matters
+                pset[k] = np.empty(pset[k].shape[:-1] + (n_in,), dtype=pset[k].dtype)
+            pset.n = n_in
         return n - n_in
 
     @staticmethod
-    def _spare(pset, key, like):
+    def _swap(pset, names, outs):
+        for k, out in zip(names, outs):
+            pset["_spare_" + k] = pset[k]
+            pset[k] = out
+
+    @staticmethod
+    def _spare(pset, key, shape, dtype):
         a = pset.arrays.get(key)
-        if a is None or a.shape != like.shape or a.dtype != like.dtype:
-            a = np.empty_like(like)
+        if a is None or a.shape != shape or a.dtype != dtype:
+            a = np.empty(shape, dtype=dtype)
             pset[key] = a
         return a
 
