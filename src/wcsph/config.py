@@ -49,9 +49,11 @@ POLYGON = dict({"points": ("points", REQUIRED, None), "closed": ("bool", False, 
 WALL_FILE = dict({"file": ("str", "", None), "mesh": ("str", "", None),
                   "fluid_side": ("str", "outside", one_of("inside", "outside"))}, **BODY)
 #: pressure sensor at ``position``; water-level gauge along the vertical line from
-#: ``position`` up by ``length`` (0: to the top of the domain)
+#: ``position`` up by ``length`` (0: to the top of the domain); ``extrapolate``: a pressure
+#: sensor carries each particle's p to the point along the momentum equation's grad p
 PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, one_of("pressure", "level")),
-         "position": ("vec", REQUIRED, None), "length": ("float", 0.0, NONNEG)}
+         "position": ("vec", REQUIRED, None), "length": ("float", 0.0, NONNEG),
+         "extrapolate": ("bool", False, None)}
 
 #: the runtime parameters of the WCSPH-BI spec, accepted flat in a ``[parameters]`` table
 #: under the spec's names, and where each one lives in the case: those of the plug-in

@@ -339,16 +339,54 @@ class Simulation:
 
     def body_loads(self):
         """Force and torque of the fluid on each named body: {NAME_fx, NAME_fy[, NAME_fz],
-        NAME_torque (2D) or NAME_tx, NAME_ty, NAME_tz (3D)}. The force is minus the sum of
-        m_i (a_i - a_i without the body) over the fluid: the derivatives are evaluated once
-        with every wall and once without the body's walls, at the current state (every field
-        they write is restored after). The torque is about the body's centre, with each
-        particle's share applied at the particle (an O(h) lever-arm approximation). With the
-        consistent wall model the Shepard factor changes without the body, so there the
-        difference is the body's share only to first order."""
+        NAME_torque (2D) or NAME_tx, NAME_ty, NAME_tz (3D)}, the torque about the body's
+        centre.
+
+        Boundary elements: the sum of the body's element loads (``physics.loads``: the wall's
+        own pressure p_b n_b S_b and the reaction of the viscous wall term), the torque with
+        each element's lever arm. Boundary particles: minus the sum of m_i (a_i - a_i without
+        the body) over the fluid, the derivatives evaluated once with every wall and once
+        without the body's walls at the current state (every field they write is restored
+        after); the torque with each fluid particle's lever arm (an O(h) approximation)."""
         named = [b for b, name in enumerate(self.bodies.names) if name]
         if not named:
             return {}
+        if self.model.boundary == "elements":
+            loads = self._element_body_loads(named)
+        else:
+            loads = self._particle_body_loads(named)
+        out = {}
+        for b, (force, torque) in zip(named, loads):
+            if self.par is not None:
+                force, torque = np.split(self.par.sum(np.concatenate([force, np.ravel(torque)])), [self.dim])
+            name = self.bodies.names[b]
+            for a, c in enumerate("xyz"[: self.dim]):
+                out[f"{name}_f{c}"] = float(force[a])
+            if self.dim == 2:
+                out[f"{name}_torque"] = float(np.ravel(torque)[0])
+            else:
+                for a, c in enumerate("xyz"):
+                    out[f"{name}_t{c}"] = float(torque[a])
+        return out
+
+    def _element_body_loads(self, named):
+        be, w, par = self.backend, self.walls, self.par
+        self.settle()
+        load = be.to_host(self.model.wall_loads(self.fluid, w, self.P, self.G)).astype(float)
+        x, body = self.host(w, "x", "body")
+        x = x.astype(float)
+        if par is not None:  # each element from the rank whose slab holds it (all its neighbours are there)
+            load = load * (par.owner(par.column(x)) == par.rank)
+        out = []
+        for b in named:
+            sel = body == b
+            f = load[:, sel]
+            r = x[:, sel] - self.bodies.reference(b, self.t)[:, None]
+            torque = [np.sum(r[0] * f[1] - r[1] * f[0])] if self.dim == 2 else np.cross(r.T, f.T).sum(axis=0)
+            out.append((f.sum(axis=1), np.asarray(torque)))
+        return out
+
+    def _particle_body_loads(self, named):
         be, fl, par = self.backend, self.fluid, self.par
         if par is not None:
             par.update(fl, parallel.STATE)
@@ -356,7 +394,7 @@ class Simulation:
         self.model.derivatives(fl, self.walls, self.P, self.G, self.halo)
         mine = be.to_host(fl["owned"]) != 0 if par is not None else slice(None)
         x, m, a_all = (a.astype(float)[..., mine] for a in self.host(fl, "x", "m", "dvdt"))
-        out = {}
+        out = []
         host = {k: be.to_host(self.walls[k]) for k in self.walls.per_particle() if k != "cell"}
         for b in named:
             keep = host["body"] != b
@@ -365,19 +403,9 @@ class Simulation:
             be.sort(rest, self.grid)
             self.model.derivatives(fl, rest, self.P, self.G, self.halo)
             f = m * (a_all - be.to_host(fl["dvdt"]).astype(float)[..., mine])  # on the fluid, from the body
-            force = -f.sum(axis=1)
             r = x - self.bodies.reference(b, self.t)[:, None]
             torque = [-np.sum(r[0] * f[1] - r[1] * f[0])] if self.dim == 2 else -np.cross(r.T, f.T).sum(axis=0)
-            if par is not None:
-                force, torque = np.split(par.sum(np.concatenate([force, np.ravel(torque)])), [self.dim])
-            name = self.bodies.names[b]
-            for a, c in enumerate("xyz"[: self.dim]):
-                out[f"{name}_f{c}"] = float(force[a])
-            if self.dim == 2:
-                out[f"{name}_torque"] = float(torque[0])
-            else:
-                for a, c in enumerate("xyz"):
-                    out[f"{name}_t{c}"] = float(torque[a])
+            out.append((-f.sum(axis=1), np.asarray(torque)))
         for k, a in saved.items():
             fl[k] = be.to_device(a)
         return out

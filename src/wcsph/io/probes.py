@@ -45,8 +45,8 @@ class ProbeWriter:
 
 
 # ------------------------------------------------------------------ point probes
-ProbePoints = namedtuple("ProbePoints", "x sum_p sum_w cell start")
-ProbeFluid = namedtuple("ProbeFluid", "x p rho m cell start")
+ProbePoints = namedtuple("ProbePoints", "x sum_p sum_w sum_c cell start")
+ProbeFluid = namedtuple("ProbeFluid", "x p rho m dvdt cell start")
 
 #: below this kernel sum (sum_j W V_j; about 1 inside the fluid, 1/2 on a wall) a sensor is dry
 DRY = 0.1
@@ -57,21 +57,25 @@ GAUGE_SAMPLES = 4
 def _make_sampler(ctx, backend, periodic):
     from numba.extending import register_jitable
 
-    w, zero = ctx.w, ctx.zero
+    w, zero, dim = ctx.w, ctx.zero, ctx.dim
 
     @register_jitable
     def init(i, I, P):
-        return (zero, zero)
+        return (zero, zero, zero)
 
     @register_jitable
     def pair(i, j, dx, dy, dz, r, I, J, P, acc):
         wv = w(r, P) * J.m[j] / J.rho[j]
-        return (acc[0] + J.p[j] * wv, acc[1] + wv)
+        # grad p = rho (g - Dv/Dt) at j (the momentum equation), times x_s - x_j
+        gz = (P.gz - J.dvdt[2, j]) * dz if dim == 3 else zero
+        c = J.rho[j] * ((P.gx - J.dvdt[0, j]) * dx + (P.gy - J.dvdt[1, j]) * dy + gz)
+        return (acc[0] + J.p[j] * wv, acc[1] + wv, acc[2] + c * wv)
 
     @register_jitable
     def store(i, I, P, acc):
         I.sum_p[i] = acc[0]
         I.sum_w[i] = acc[1]
+        I.sum_c[i] = acc[2]
 
     return backend.make_pass(ctx.dim, ctx.dtype, init, pair, store, periodic=periodic)
 
@@ -80,7 +84,12 @@ class PointProbes:
     """Pressure sensors and water-level gauges of a case (``probes``), any model.
 
     * pressure: p(x_s) = sum_j p_j W_sj V_j / sum_j W_sj V_j over fluid particles (Shepard),
-      0 while the sensor is dry (kernel sum below ``DRY``);
+      0 while the sensor is dry (kernel sum below ``DRY``). With ``extrapolate`` each p_j is
+      first carried to the sensor along the pressure gradient of the momentum equation,
+      p_j + rho_j (g - Dv/Dt_j) . (x_s - x_j): a sensor on a wall then reads the pressure at
+      the wall, not the mean over the one-sided support in front of it (a support reaches
+      2h, four spacings, into a flow whose pressure falls away from the wall); in still
+      water it is Adami et al.'s (2012) hydrostatic wall pressure;
     * level: the vertical line from ``position`` up by ``length`` is sampled every dp/4; the
       level is the highest height where the kernel sum sum_j W V_j is at least 1/2 (the free
       surface criterion of DualSPHysics' gauges), interpolated between samples; the line's
@@ -98,7 +107,7 @@ class PointProbes:
         lo, hi = sim.domain
         for k, pr in enumerate(self.specs):
             base = np.asarray(pr["position"], dtype=float)
-            if np.any(base < lo) or np.any(base > hi):
+            if np.any(base < lo) or np.any(base >= hi):
                 from ..config import CaseError
 
                 raise CaseError(f"{case['_source']}: probes[{k}].position: {pr['position']} lies outside "
@@ -106,10 +115,12 @@ class PointProbes:
             if pr["kind"] == "pressure":
                 line = base[:, None]
             else:
-                length = pr["length"] or (hi[-1] - base[-1])
+                # the grid is half open, [lo, hi): the line stops just below the domain's top
+                room = (hi[-1] - base[-1]) * (1.0 - 1e-6)
+                length = min(pr["length"] or room, room)
                 m = max(2, int(np.ceil(length / (sim.dp / GAUGE_SAMPLES))) + 1)
                 line = np.repeat(base[:, None], m, axis=1)
-                line[-1] = base[-1] + np.linspace(0.0, min(length, hi[-1] - base[-1]), m)
+                line[-1] = base[-1] + np.linspace(0.0, length, m)
             self.slices.append(slice(sum(p.shape[1] for p in pts), sum(p.shape[1] for p in pts) + line.shape[1]))
             pts.append(line)
         self.n = sum(p.shape[1] for p in pts)
@@ -120,10 +131,11 @@ class PointProbes:
         self.heights = allp[-1]
         be, dtype = sim.backend, sim.dtype
         self.points = ParticleSet("probes", sim.dim, {"x": be.to_device(allp.astype(dtype))})
-        for name in ("sum_p", "sum_w"):
+        for name in ("sum_p", "sum_w", "sum_c"):
             self.points.add(name, "scalar", dtype, be)
         self.points["order"] = be.to_device(np.arange(self.n, dtype=np.int64))
-        be.sort(self.points, sim.grid)
+        if be.sort(self.points, sim.grid):  # a point outside the grid would shift every later column
+            raise RuntimeError("a probe point lies outside the cell grid")
         self.order = np.argsort(be.to_host(self.points["order"]))
         ctx = Ctx.create(dtype, sim.dim, case["model"]["kernel"])
         self.sampler = _make_sampler(ctx, be, sim.model.periodic)
@@ -139,18 +151,19 @@ class PointProbes:
         if not self.n:
             return {}
         f = sim.fluid
-        fluid = ProbeFluid(f["x"], f["p"], f["rho"], f["m"], f["cell"], f["start"])
+        fluid = ProbeFluid(f["x"], f["p"], f["rho"], f["m"], f["dvdt"], f["cell"], f["start"])
         self.sampler(self.points.view(ProbePoints), fluid, fluid, sim.P, sim.G)
-        sp, sw = (sim.backend.to_host(self.points[k]).astype(float)[self.order] for k in ("sum_p", "sum_w"))
+        sp, sw, sc = (sim.backend.to_host(self.points[k]).astype(float)[self.order] for k in ("sum_p", "sum_w", "sum_c"))
         par = sim.par
         if par is not None:  # each point from the rank whose slab holds it (its neighbours are there)
             mine = par.owner(par.column(self.base)) == par.rank
-            sp, sw = par.sum(np.stack([sp * mine, sw * mine]))
+            sp, sw, sc = par.sum(np.stack([sp * mine, sw * mine, sc * mine]))
         out = {}
         for pr, sl in zip(self.specs, self.slices):
             if pr["kind"] == "pressure":
                 w = sw[sl][0]
-                out[pr["name"]] = float(sp[sl][0] / w) if w >= DRY else 0.0
+                s = sp[sl][0] + (sc[sl][0] if pr["extrapolate"] else 0.0)
+                out[pr["name"]] = float(s / w) if w >= DRY else 0.0
             else:
                 out[pr["name"]] = free_surface_level(self.heights[sl], sw[sl])
         return out

@@ -31,6 +31,7 @@ from ..physics import Correction, Ctx, compose
 from ..physics.correction import (make_cspm_boundary, make_cspm_matrix, make_cspm_store, make_shepard_density,
                                  make_shepard_density_store)
 from ..physics.density import make_akinci_volume
+from ..physics.loads import make_element_loads
 from ..physics.renormalization import (make_boundary_interpolation, make_boundary_store, make_noslip_velocity,
                                       make_shepard)
 from ..physics.viscosity import kinematic_viscosity
@@ -58,6 +59,8 @@ for _flags in __import__("itertools").product((False, True), repeat=len(_OPTIONA
     globals()[_name] = namedtuple(_name, _fields)
 FluidView = globals()[_fluid_view_name((False,) * len(_OPTIONAL))]
 ElementView = namedtuple("ElementView", "x v n elementSize p rho cell start")
+#: boundary elements as the load pass writes them
+LoadView = namedtuple("LoadView", "x v n elementSize load cell start")
 #: boundary particles as the classic terms see them (Psi only), and with V = Psi/rho0, rho0
 ParticleWallView = namedtuple("ParticleWallView", "x v psi cell start")
 ParticleWallViewFull = namedtuple("ParticleWallViewFull", "x v psi vol rho cell start")
@@ -171,6 +174,11 @@ class WCSPH:
         if self.consistent:
             init_b, store_b = make_boundary_store(ctx)
             self.boundary_pass = mk(dim, dtype, init_b, make_boundary_interpolation(ctx), store_b)
+        self.load_pass = None
+        if self.boundary == "elements":  # the fluid's load on each element (body forces)
+            shear = sel["viscous"].build(ctx, q).wall if sel["viscous"].build is not None else []
+            self.load_pass = mk(dim, dtype, *make_element_loads(ctx, compose(*shear) if shear else None,
+                                                                self.consistent))
         self.cspm_pass = None
         if self.corrected:
             init_l, store_l = make_cspm_store(ctx)
@@ -352,6 +360,17 @@ class WCSPH:
         if self.cspm_pass is not None:
             self.cspm_pass(f, f, w, P, G)
         self.interaction(f, f, w, P, G)
+
+    def wall_loads(self, fluid, walls, P, G):
+        """The fluid's load on each boundary element (``physics.loads``): p_b n_b S_b plus the
+        viscous wall term's reaction, written to the walls' ``load`` (dim, n). p must be
+        current (``refresh``); the consistent scheme's Shepard factor is the last evaluation's."""
+        if "load" not in walls.arrays:
+            walls.add("load", "vector", self.dtype, self.backend, scratch=True)
+        if walls.n:
+            f = self.view(fluid, self.fluid_view)
+            self.load_pass(self.view(walls, LoadView), f, f, P, G)
+        return walls["load"]
 
     def refresh(self, fluid, P):
         """p and V from the current density (continuity density: the last evaluation may have

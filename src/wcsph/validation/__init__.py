@@ -114,6 +114,9 @@ def poiseuille_open(quick, overrides=(), times=(1.0, 2.0, 4.0)):
                   f"{sim.open.created}, removed {sim.open.removed}", curves, ("u_x [m/s]", "y [m]"))
 
 
+#: SPHERIC 2 with the classic model: the shipped classic defaults on the same geometry
+SPHERIC2_CLASSIC = [("model", {"name": "classic"})]
+
 #: the classic model on the same channels: Akinci walls with the no-slip velocity of Adami et
 #: al. (2012), density summation, Tait EOS, Morris viscosity, no XSPH
 CLASSIC = [("model.name", "classic"), ("model.BCType", "AkinciBoundaryParticles"), ("model.xsph", "None"),
@@ -250,6 +253,107 @@ def dam_break_bi(quick):
     return _dam_break("WCSPH-BI", case, [], a)
 
 
+def _spheric2(label, quick, overrides=()):
+    """SPHERIC test 2 (``spheric2_3d``) against Kleefsman et al. (2005): the arrival times and
+    the means of the sensors and gauges over 0.5-1.5 s (``spheric2``). The full set runs at
+    dp = 0.025 (43 k fluid particles), where every figure must meet its tolerance; the quick
+    set at dp = 0.05 (5 k, three particles over the box's height), where only the reservoir
+    level and the impact are asked to be within twice their tolerance."""
+    import tempfile
+
+    from . import spheric2
+
+    dp = 0.05 if quick else 0.025
+    sim = _sim("spheric2_3d", [("dp", dp), ("output.vtk", False), ("output.progress", False)] + list(overrides))
+    with tempfile.TemporaryDirectory() as tmp:
+        sim.run(tmp, progress=False)
+        run = spheric2.probes_series(Path(tmp) / "probes.csv")
+    rows = spheric2.compare(spheric2.figures(run))
+    if quick:
+        judged = [r for r in rows if r[0] in ("P1 impact", "H4 mean")]
+        passed = all(abs(r[3]) <= 2 * r[4] for r in judged)
+    else:
+        judged = [r for r in rows if r[0] not in spheric2.SHOWN_ONLY]
+        passed = all(r[5] for r in judged)
+    worst = max(abs(r[3]) / r[4] for r in judged)
+    detail = (f"dp = {dp:g} m, {sim.n_fluid()} fluid particles. Error: absolute for times [s] and levels [m], "
+              "relative for pressures.\n\n| figure | experiment | run | error | tolerance |\n|---|---|---|---|---|\n"
+              + "\n".join(f"| {n} | {e:.4g} | {r:.4g} | {err:+.3g} | {tol:g}{'' if n not in spheric2.SHOWN_ONLY else ' (shown)'} |"
+                          for n, e, r, err, tol, _ in rows))
+    exp = spheric2.experiment()
+    curves = []
+    for name in ("P1", "P3"):
+        curves += [(f"{name} run", *run[name], "sim"), (f"{name} Kleefsman et al.", *exp[name], "ref")]
+    return Result(f"SPHERIC 2, 3D dam break on a box, {label}",
+                  "largest error / tolerance over the arrival times and 0.5-1.5 s means" + (" (quick: P1 impact, H4)" if quick else ""),
+                  "Kleefsman et al. (2005)", worst, 2.0 if quick else 1.0, passed, detail, curves, ("t [s]", "p [Pa]"))
+
+
+def spheric2_bi(quick):
+    return _spheric2("WCSPH-BI", quick)
+
+
+def spheric2_classic(quick):
+    return _spheric2("classic", quick, SPHERIC2_CLASSIC)
+
+
+def moving_square(quick, overrides=()):
+    """SPHERIC test 6 (``moving_square_2d``, Re = 100, 20 particles across the square): the
+    drag coefficient C_D = -2 F_x / (rho U^2 L) against the reference, its mean over
+    2 <= t <= 6 s (within 5 %) and the RMS of the difference (at most 0.15)."""
+    import csv
+    import tempfile
+
+    sim = _sim("moving_square_2d", [("time.end", 6.0), ("output.vtk", False), ("output.progress", False)]
+               + list(overrides))
+    with tempfile.TemporaryDirectory() as tmp:
+        sim.run(tmp, progress=False)
+        with open(Path(tmp) / "probes.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+    t = np.array([float(r["time"]) for r in rows])
+    cd = -2.0 * np.array([float(r["square_fx"]) for r in rows])
+    rt, rcd = ref.moving_square_drag()
+    sel = (t >= 2.0) & (t <= 6.0)
+    mean, mean_ref = float(np.mean(cd[sel])), float(np.mean(rcd[(rt >= 2.0) & (rt <= 6.0)]))
+    rms = float(np.sqrt(np.mean((cd[sel] - np.interp(t[sel], rt, rcd)) ** 2)))
+    err = abs(mean / mean_ref - 1)
+    return Result("SPHERIC 6, moving square, drag", "abs(mean C_D / reference - 1) over 2 <= t <= 6 s; RMS of the difference",
+                  "SPHERIC test 6 reference, Re = 100", err, 0.05, bool(err < 0.05 and rms <= 0.15),
+                  f"mean C_D {mean:.3f} against {mean_ref:.3f}; RMS of C_D - C_D,ref {rms:.3f} (at most 0.15); "
+                  f"{sim.n_fluid()} fluid particles",
+                  [("SPH", t, cd, "sim"), ("reference", rt, rcd, "ref")], ("t [s]", "C_D"))
+
+
+def lobovsky(quick, overrides=(), label="WCSPH-BI"):
+    """Lobovsky et al. (2014), ``dam_break_2d_bi`` (H = 0.3 m, dp = 0.005): the mean wall
+    pressure of sensors P1-P3 over T = t sqrt(g/H) in [3, 5] (after the impact, the
+    run-up and its fall) within 15 % of the experiment's; the peak at P1 is shown."""
+    import csv
+    import tempfile
+
+    H, g = 0.3, 9.81
+    sim = _sim("dam_break_2d_bi", [("time.end", 5.2 / math.sqrt(g / H)), ("output.vtk", False),
+                                   ("output.progress", False), ("output.probe_interval", 0.002)] + list(overrides))
+    with tempfile.TemporaryDirectory() as tmp:
+        sim.run(tmp, progress=False)
+        with open(Path(tmp) / "probes.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+    T = np.array([float(r["time"]) for r in rows]) * math.sqrt(g / H)
+    scale = float(sim.rho0) * g * H
+    errs, lines, curves = [], [], []
+    for k in (1, 2, 3):
+        p = np.array([float(r[f"P{k}"]) for r in rows]) / scale
+        rT, rp = ref.lobovsky_pressure(k)
+        m, mr = float(np.mean(p[(T >= 3) & (T <= 5)])), float(np.mean(rp[(rT >= 3) & (rT <= 5)]))
+        errs.append(m / mr - 1)
+        lines.append(f"P{k}: {m:.3f} against {mr:.3f} ({m / mr - 1:+.1%}), peak {p.max():.2f} against {rp.max():.2f}")
+        curves += [(f"P{k}", T, p, "sim"), (f"P{k} Lobovsky et al.", rT, rp, "ref")]
+    worst = float(np.max(np.abs(errs)))
+    return Result(f"Lobovsky et al. (2014) wall pressure, {label}", "largest abs(mean p / reference - 1), P1-P3, 3 <= T <= 5",
+                  "Lobovsky et al. (2014), H = 300 mm", worst, 0.15, worst < 0.15,
+                  "; ".join(lines) + f"; {sim.n_fluid()} fluid particles", curves, ("T = t sqrt(g/H)", "p / (rho g H)"))
+
+
 #: (function, in the quick subset)
 CHECKS = [
     (poiseuille, True),
@@ -262,6 +366,10 @@ CHECKS = [
     (hydrostatic_bi, True),
     (dam_break_classic, False),
     (dam_break_bi, False),
+    (spheric2_bi, True),
+    (spheric2_classic, False),
+    (moving_square, False),
+    (lobovsky, False),
     (convergence_poiseuille, False),
     (convergence_taylor_green, False),
 ]

@@ -52,3 +52,18 @@ def taylor_green_velocity(x, t, re):
     e = np.exp(-8 * np.pi**2 / re * t)
     return np.stack([-e * np.cos(2 * np.pi * x[0]) * np.sin(2 * np.pi * x[1]),
                      e * np.sin(2 * np.pi * x[0]) * np.cos(2 * np.pi * x[1])])
+
+
+def moving_square_drag():
+    """(t, C_D) of SPHERIC test 6 at Re = 100, the reference drag coefficient of the square
+    (pressure plus viscous parts, ``spheric6_moving_square_drag_re100.dat``)."""
+    d = np.loadtxt(DATA / "spheric6_moving_square_drag_re100.dat", skiprows=2)
+    return d[:, 0], d[:, 1] + d[:, 2]
+
+
+def lobovsky_pressure(sensor):
+    """(T, p / (rho g H)) of Lobovsky et al. (2014), H = 0.3 m, at sensor 1-4 on the wall
+    the water hits (``lobovsky_2014_pressure_P{sensor}.dat``, the ensemble of their Fig. 18
+    as TNL-SPH ships it), T = t sqrt(g/H)."""
+    d = np.loadtxt(DATA / f"lobovsky_2014_pressure_P{sensor}.dat", comments="#")
+    return d[:, 0], d[:, 1]

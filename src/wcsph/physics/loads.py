@@ -1,0 +1,60 @@
+"""The fluid's load on boundary elements: what a wall, an obstacle or a moving body feels.
+
+One pass over the elements b with their fluid neighbours j gives each element its load
+F_b = p_b n_b S_b + T_b:
+
+* p_b, the wall's own pressure: the Shepard interpolation of the fluid's pressure with the
+  hydrostatic correction of Adami, Hu & Adams (2012), p_b = sum_j (p_j + rho_j g . (x_b - x_j))
+  W_bj V_j / sum_j W_bj V_j (0 where the element is dry, sum_j W V_j below ``DRY``), not
+  clamped (suction behind a moving body is part of its drag). Normalized per element, a
+  uniform pressure loads a closed body with exactly p sum_b n_b S_b = 0 however the particles
+  lie: the sum over particles of the wall pressure term, which the fluid's momentum sees,
+  carries the background pressure times the particles' disorder (with p0 = 5 rho U^2 in
+  SPHERIC test 6, ten times the dynamic pressure);
+* T_b, the shear: the reaction of the case's viscous wall term on each neighbour,
+  -sum_j V_j / gamma_j f_visc,jb (gamma_j the Shepard factor that divides the consistent
+  scheme's derivatives, 1 otherwise), so the body feels exactly the friction the fluid feels.
+
+Summed over a body's elements these give its force, and with the lever arms x_b - c its torque.
+"""
+from numba.extending import register_jitable
+
+#: below this kernel sum an element is dry (as a pressure sensor, ``io.probes.DRY``)
+DRY = 0.1
+
+
+def make_element_loads(ctx, shear, consistent):
+    """(init, pair, store) of the load pass: I the elements (``load`` written), J the fluid;
+    ``shear``: the viscous slot's wall term (a pair term over fluid i, element j, writing the
+    interaction accumulator's force slots) or None."""
+    w, dim, zero = ctx.w, ctx.dim, ctx.zero
+    dry = ctx.dtype(DRY)
+    if shear is None:  # inviscid: no friction
+        @register_jitable
+        def shear(i, j, dx, dy, dz, r, I, J, P, acc):
+            return acc
+
+    @register_jitable
+    def init(i, I, P):
+        return (zero, zero, zero, zero, zero)
+
+    @register_jitable
+    def pair(i, j, dx, dy, dz, r, I, J, P, acc):
+        wv = w(r, P) * J.vol[j]
+        gz = P.gz * dz if dim == 3 else zero
+        p = J.p[j] + J.rho[j] * (P.gx * dx + P.gy * dy + gz)
+        # the fluid's friction from this element, reversed
+        f = shear(j, i, -dx, -dy, -dz, r, J, I, P, (zero, zero, zero, zero, zero, zero, zero, zero, zero))
+        k = J.vol[j] / J.shepard[j] if consistent and J.shepard[j] > zero else J.vol[j]
+        return (acc[0] + p * wv, acc[1] + wv, acc[2] - k * f[2], acc[3] - k * f[3], acc[4] - k * f[4])
+
+    @register_jitable
+    def store(i, I, P, acc):
+        p = acc[0] / acc[1] if acc[1] >= dry else zero
+        s = p * I.elementSize[i]
+        I.load[0, i] = s * I.n[0, i] + acc[2]
+        I.load[1, i] = s * I.n[1, i] + acc[3]
+        if dim == 3:
+            I.load[2, i] = s * I.n[2, i] + acc[4]
+
+    return init, pair, store
