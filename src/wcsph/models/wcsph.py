@@ -33,7 +33,7 @@ from ..physics.correction import (make_cspm_boundary, make_cspm_matrix, make_csp
 from ..physics.density import make_akinci_volume
 from ..physics.loads import make_element_loads
 from ..physics.renormalization import (make_boundary_interpolation, make_boundary_store, make_noslip_velocity,
-                                      make_shepard)
+                                      make_shepard, make_wall_pressure)
 from ..physics.viscosity import kinematic_viscosity
 from ..physics.wall_corrections import make_init as make_wall_init
 from ..physics.wall_corrections import make_store as make_wall_store
@@ -64,6 +64,8 @@ LoadView = namedtuple("LoadView", "x v n elementSize load cell start")
 #: boundary particles as the classic terms see them (Psi only), and with V = Psi/rho0, rho0
 ParticleWallView = namedtuple("ParticleWallView", "x v psi cell start")
 ParticleWallViewFull = namedtuple("ParticleWallViewFull", "x v psi vol rho cell start")
+#: ... with the wall particles' own pressure (``wall_pressure = "adami"``)
+ParticleWallViewPressure = namedtuple("ParticleWallViewPressure", "x v psi vol rho p pr cell start")
 #: boundary particles as the no-slip velocity pass writes them
 NoSlipWallView = namedtuple("NoSlipWallView", "x v v_ext cell start")
 #: fields a view may lack in a case, by number of array dimensions (a stand-in is passed)
@@ -170,6 +172,9 @@ class WCSPH:
         if self.boundary == "particles" and m["wall_velocity"] == "adami":
             init_n, pair_n, store_n = make_noslip_velocity(ctx)
             self.noslip_pass = mk(dim, dtype, init_n, pair_n, store_n)
+        self.wall_pressure_pass = None
+        if self.boundary == "particles" and m["wall_pressure"] == "adami":
+            self.wall_pressure_pass = mk(dim, dtype, *make_wall_pressure(ctx))
         self.boundary_pass = None
         if self.consistent:
             init_b, store_b = make_boundary_store(ctx)
@@ -236,8 +241,12 @@ class WCSPH:
             (self.continuity, self.consistent, self.corrected, bool(self.corrections), self.needs_c))]
         psi_only = (not self.continuity and sel["pressure"].name == "Monaghan1992" and sel["viscous"].name == "None"
                     and sel["shifting"].name == "None" and not self.corrected)
-        self.wall_view = ElementView if self.boundary == "elements" else (
-            ParticleWallView if psi_only else ParticleWallViewFull)
+        if self.boundary == "elements":
+            self.wall_view = ElementView
+        elif self.wall_pressure_pass is not None:
+            self.wall_view = ParticleWallViewPressure
+        else:
+            self.wall_view = ParticleWallView if psi_only else ParticleWallViewFull
 
     # ------------------------------------------------------------------ set-up
     def fluid_fields(self):
@@ -261,6 +270,8 @@ class WCSPH:
     def wall_fields(self):
         if self.boundary == "particles":
             extra = [("v_ext", "vector")] if self.noslip_pass is not None else []
+            if self.wall_pressure_pass is not None:
+                extra += [("p", "scalar"), ("pr", "scalar")]
             return [("psi", "scalar"), ("vol", "scalar"), ("rho", "scalar")] + extra
         return [("p", "scalar"), ("rho", "scalar")]
 
@@ -353,6 +364,10 @@ class WCSPH:
             if halo is not None:
                 halo.walls(walls, ("v_ext",))
             w = w._replace(v=walls["v_ext"])
+        if self.wall_pressure_pass is not None and walls.n:  # the walls' pressure from the fluid's
+            self.wall_pressure_pass(w, f, f, P, G)
+            if halo is not None:
+                halo.walls(walls, ("p", "pr"))
         if self.boundary_pass is not None and walls.n:
             self.boundary_pass(w, f, f, P, G)
             if halo is not None:

@@ -105,17 +105,20 @@ def make_symmetric_pressure(ctx):
     return term
 
 
-def make_akinci_pressure(ctx):
+def make_akinci_pressure(ctx, mirrored=True):
     """Boundary pressure force of Akinci et al. (2012) eq. 10 with pressure mirroring
     (p_k = p_i, rho_k = rho_i, Band et al. 2018): a_i -= Psi_k 2 p_i/rho_i^2 grad W_ik.
     The mirrored form makes a full-support wall act like the fluid it replaces, which holds a
-    hydrostatic column at rest; Akinci's single term leaves half the wall force missing."""
+    hydrostatic column at rest; Akinci's single term leaves half the wall force missing.
+    Not ``mirrored``: a_i -= Psi_k (p_i/rho_i^2 + p_k/rho_k^2) grad W_ik with the wall
+    particles' own pressure (``wall_pressure = "adami"``)."""
 
     kernel_grad = ctx.grad
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        f = -J.psi[j] * (I.pr[i] + I.pr[i]) * kernel_grad(r, P)
+        prk = I.pr[i] if mirrored else J.pr[j]
+        f = -J.psi[j] * (I.pr[i] + prk) * kernel_grad(r, P)
         return add_accel(acc, f * dx, f * dy, f * dz)
 
     return term
@@ -150,10 +153,10 @@ def _wall_part(ctx, q, particles_term):
         symmetric = q.m["cspm_form"] == "symmetric"
         if q.boundary == "elements":  # the boundary integral completes the corrected gradient
             return [make_corrected_boundary_pressure(ctx, symmetric, q.conservative)]
-        return [make_corrected_pressure(ctx, True, mirrored=True)] if symmetric else []
+        return [make_corrected_pressure(ctx, True, mirrored=q.m["wall_pressure"] == "mirror")] if symmetric else []
     if q.boundary == "elements":
         return [make_bi_boundary_pressure(ctx, q.conservative)]
-    return [particles_term(ctx)]
+    return [particles_term(ctx, q.m["wall_pressure"] == "mirror")]
 
 
 def _bulk(ctx, q, term):
@@ -161,7 +164,7 @@ def _bulk(ctx, q, term):
 
 
 def _build_bi(ctx, q):
-    return Terms([_bulk(ctx, q, make_bi_pressure)], _wall_part(ctx, q, lambda ctx: make_bi_pressure(ctx, mirrored=True)))
+    return Terms([_bulk(ctx, q, make_bi_pressure)], _wall_part(ctx, q, lambda ctx, m: make_bi_pressure(ctx, mirrored=m)))
 
 
 def _build_monaghan(ctx, q):

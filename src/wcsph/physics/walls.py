@@ -36,7 +36,7 @@ def _element_check(m):
 
 
 add("walls", Choice(
-    "AkinciBoundaryParticles", "Akinci et al. (2012) with pressure mirroring (Band et al. 2018)",
+    "AkinciBoundaryParticles", "Akinci et al. (2012), wall pressure of Adami et al. (2012) or mirrored (Band et al. 2018)",
     "wall particles, pseudo-mass Psi_k; the fluid's terms continued over them",
     params=(Param("wall_layers", 0, "layers of wall particles; 0: the kernel support (lattice volume) or 1 "
                   "(akinci volume)", kind="int", check=NONNEG),
@@ -44,7 +44,11 @@ add("walls", Choice(
                   "/ sum_l W_kl, eq. 5)", kind="str", check=one_of("lattice", "akinci")),
             Param("wall_velocity", "prescribed", "the velocity the wall terms read: 'prescribed' (the wall's "
                   "own) or 'adami' (no-slip: 2 v_w minus the fluid velocity interpolated at the wall "
-                  "particle, Adami, Hu & Adams 2012)", kind="str", check=one_of("prescribed", "adami"))),
+                  "particle, Adami, Hu & Adams 2012)", kind="str", check=one_of("prescribed", "adami")),
+            Param("wall_pressure", "adami", "the pressure the wall terms read: 'mirror' (the fluid "
+                  "particle's own, Band et al. 2018) or 'adami' (the fluid's pressure interpolated at the "
+                  "wall particle with the hydrostatic correction, Adami, Hu & Adams 2012 eq. 27)",
+                  kind="str", check=one_of("mirror", "adami"))),
     walls=("particles",), boundary="particles"))
 add("walls", Choice(
     "BIConservative_numeric", "WCSPH-BI spec, conservative boundary integrals",

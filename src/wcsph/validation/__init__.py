@@ -31,6 +31,7 @@ class Result:
     curves: list = field(default_factory=list)  # (label, x, y, kind: 'sim' | 'ref')
     axes: tuple = ("", "")
     seconds: float = 0.0
+    check: str = ""  # the function's name
 
 
 def _sim(case, overrides=()):
@@ -114,8 +115,10 @@ def poiseuille_open(quick, overrides=(), times=(1.0, 2.0, 4.0)):
                   f"{sim.open.created}, removed {sim.open.removed}", curves, ("u_x [m/s]", "y [m]"))
 
 
-#: SPHERIC 2 with the classic model: the shipped classic defaults on the same geometry
-SPHERIC2_CLASSIC = [("model", {"name": "classic"})]
+#: SPHERIC 2 with the classic model: the settings of ``dam_break_3d`` (XSPH epsilon = 0.01,
+#: water's viscosity, Adami's wall pressure, no wall friction) on the same geometry
+SPHERIC2_CLASSIC = [("model", {"name": "classic", "xsph_epsilon": 0.01, "ViscousTerm": "PhysicalViscosity_MVT",
+                               "dynamicViscosity": 1.0e-3})]
 
 #: the classic model on the same channels: Akinci walls with the no-slip velocity of Adami et
 #: al. (2012), density summation, Tait EOS, Morris viscosity, no XSPH
@@ -354,6 +357,11 @@ def lobovsky(quick, overrides=(), label="WCSPH-BI"):
                   "; ".join(lines) + f"; {sim.n_fluid()} fluid particles", curves, ("T = t sqrt(g/H)", "p / (rho g H)"))
 
 
+#: checks whose tolerance is a goal of the project not reached yet (docs/accuracy.md says by
+#: how much and why): they run and report like the others, and ``test_full_validation_set``
+#: expects exactly these to fail, so one that starts to pass must leave this set
+OPEN_GOALS = {"spheric2_bi", "spheric2_classic", "moving_square", "lobovsky"}
+
 #: (function, in the quick subset)
 CHECKS = [
     (poiseuille, True),
@@ -392,6 +400,7 @@ def run_all(output, quick=False, only=None, log=print):
         except (CaseError, SimulationError) as e:  # a failed check, reported as one
             r = Result(fn.__name__, "(the run stopped)", "", float("nan"), 0.0, False, str(e))
         r.seconds = time.perf_counter() - t0
+        r.check = fn.__name__
         log(f"validate: {fn.__name__}: {'pass' if r.passed else 'FAIL'} ({r.measured:.4g}, "
             f"tolerance {r.tolerance:g}) in {r.seconds:.0f} s")
         results.append(r)
@@ -403,9 +412,11 @@ def write_report(out, results, quick):
     from ..io.vtk import write_text
 
     plots = _plots(out, results)
+    open_goals = [r.name for r in results if r.check in OPEN_GOALS]
     lines = ["# wcsph validation report", "",
              f"{'Quick subset' if quick else 'Full set'}: {sum(r.passed for r in results)} of {len(results)} "
-             "checks pass.", "",
+             "checks pass." + (f" Open goals (tolerances not reached yet, see docs/accuracy.md): {', '.join(open_goals)}."
+                               if open_goals else ""), "",
              "| check | compared | reference | measured | tolerance | result | time |",
              "|---|---|---|---|---|---|---|"]
     for r in results:
