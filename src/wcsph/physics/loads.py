@@ -19,6 +19,8 @@ Summed over a body's elements these give its force, and with the lever arms x_b 
 """
 from numba.extending import register_jitable
 
+from .renormalization import make_hydrostatic_sample
+
 #: below this kernel sum an element is dry (as a pressure sensor, ``io.probes.DRY``)
 DRY = 0.1
 
@@ -29,6 +31,7 @@ def make_element_loads(ctx, shear, consistent):
     interaction accumulator's force slots) or None."""
     w, dim, zero = ctx.w, ctx.dim, ctx.zero
     dry = ctx.dtype(DRY)
+    sample = make_hydrostatic_sample(ctx)
     if shear is None:  # inviscid: no friction
         @register_jitable
         def shear(i, j, dx, dy, dz, r, I, J, P, acc):
@@ -41,8 +44,7 @@ def make_element_loads(ctx, shear, consistent):
     @register_jitable
     def pair(i, j, dx, dy, dz, r, I, J, P, acc):
         wv = w(r, P) * J.vol[j]
-        gz = P.gz * dz if dim == 3 else zero
-        p = J.p[j] + J.rho[j] * (P.gx * dx + P.gy * dy + gz)
+        p = sample(j, dx, dy, dz, J, P)
         # the fluid's friction from this element, reversed
         f = shear(j, i, -dx, -dy, -dz, r, J, I, P, (zero, zero, zero, zero, zero, zero, zero, zero, zero))
         k = J.vol[j] / J.shepard[j] if consistent and J.shepard[j] > zero else J.vol[j]

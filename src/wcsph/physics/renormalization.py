@@ -17,19 +17,32 @@ def make_shepard(ctx):
     return term
 
 
+def make_hydrostatic_sample(ctx):
+    """p_j carried from fluid particle j to the wall point x_j + (dx, dy, dz) along the
+    hydrostatic gradient, p_j + rho_j g . (dx, dy, dz) (Adami, Hu & Adams 2012, eq. 27 for a
+    fixed wall)."""
+    dim, zero = ctx.dim, ctx.zero
+
+    @register_jitable
+    def sample(j, dx, dy, dz, J, P):
+        gz = P.gz * dz if dim == 3 else zero
+        return J.p[j] + J.rho[j] * (P.gx * dx + P.gy * dy + gz)
+
+    return sample
+
+
 def make_boundary_interpolation(ctx):
-    """Boundary element b, fluid neighbour j: accumulate (sum_j (p_j + rho_j g . x_bj) W V_j,
-    sum_j rho_j W V_j, sum_j W V_j). Divided by the last (Shepard), these give the wall
-    pressure with the hydrostatic correction of Adami, Hu & Adams (2012) and the wall density;
-    (dx, dy, dz) = x_b - x_j."""
-    w, dim, zero = ctx.w, ctx.dim, ctx.zero
+    """Wall point b (a boundary element or wall particle), fluid neighbour j: accumulate
+    (sum_j (p_j + rho_j g . x_bj) W V_j, sum_j rho_j W V_j, sum_j W V_j). Divided by the last
+    (Shepard), these give the wall pressure with the hydrostatic correction of Adami, Hu &
+    Adams (2012) and the wall density; (dx, dy, dz) = x_b - x_j."""
+    w = ctx.w
+    sample = make_hydrostatic_sample(ctx)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         wv = w(r, P) * J.vol[j]
-        gz = P.gz * dz if dim == 3 else zero
-        p = J.p[j] + J.rho[j] * (P.gx * dx + P.gy * dy + gz)
-        return (acc[0] + p * wv, acc[1] + J.rho[j] * wv, acc[2] + wv)
+        return (acc[0] + sample(j, dx, dy, dz, J, P) * wv, acc[1] + J.rho[j] * wv, acc[2] + wv)
 
     return term
 
@@ -58,40 +71,32 @@ def make_boundary_store(ctx):
 
 
 def make_wall_pressure(ctx):
-    """The pressure of wall particle i (set I: the walls) from its fluid neighbours j, as
-    Adami, Hu & Adams (2012) eq. 27 give it for dummy particles (fixed walls):
-    p_w,i = sum_j (p_j + rho_j g . (x_i - x_j)) W_ij V_j / sum_j W_ij V_j, clamped at 0 as
-    the classic model clamps the fluid's pressure, 0 where no fluid is near; ``pr`` =
-    p_w / rho_w^2 with rho_w the Shepard mean of the neighbours' density. Pressure mirroring
-    (p_w = p_i) misses the hydrostatic rise over the one or two spacings between a particle
-    and the wall particles it sees, so the walls push too little and a still column stands on
-    a 3-4 % higher floor pressure than its weight; these wall pressures carry it. Returns
-    (init, pair, store); the store writes ``p`` and ``pr``."""
-    w, zero, dim = ctx.w, ctx.zero, ctx.dim
+    """The pressure of wall particle i (set I: the walls) from its fluid neighbours, as Adami,
+    Hu & Adams (2012) eq. 27 give it for dummy particles (fixed walls): the interpolation of
+    ``make_boundary_interpolation``, clamped at 0 as the classic model clamps the fluid's
+    pressure, 0 where no fluid is near; ``pr`` = p_w / rho_w^2 with rho_w the Shepard mean of
+    the neighbours' density. Pressure mirroring (p_w = p_i) misses the hydrostatic rise over
+    the one or two spacings between a particle and the wall particles it sees, so the walls
+    push too little and a still column stands on a floor pressure 3-4 % above its weight;
+    these wall pressures carry it. Returns (init, pair, store); the store writes ``p``, ``pr``."""
+    zero = ctx.zero
 
     @register_jitable
     def init(i, I, P):
         return (zero, zero, zero)
 
     @register_jitable
-    def pair(i, j, dx, dy, dz, r, I, J, P, acc):
-        wv = w(r, P) * J.vol[j]
-        gz = P.gz * dz if dim == 3 else zero
-        p = J.p[j] + J.rho[j] * (P.gx * dx + P.gy * dy + gz)
-        return (acc[0] + wv, acc[1] + p * wv, acc[2] + J.rho[j] * wv)
-
-    @register_jitable
     def store(i, I, P, acc):
-        if acc[0] > zero:
-            p = max(acc[1] / acc[0], zero)
-            rho = acc[2] / acc[0]
+        if acc[2] > zero:
+            p = max(acc[0] / acc[2], zero)
+            rho = acc[1] / acc[2]
             I.p[i] = p
             I.pr[i] = p / (rho * rho)
         else:
             I.p[i] = zero
             I.pr[i] = zero
 
-    return init, pair, store
+    return init, make_boundary_interpolation(ctx), store
 
 
 def make_noslip_velocity(ctx):
