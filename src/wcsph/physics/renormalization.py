@@ -80,10 +80,7 @@ def make_wall_pressure(ctx):
     push too little and a still column stands on a floor pressure 3-4 % above its weight;
     these wall pressures carry it. Returns (init, pair, store); the store writes ``p``, ``pr``."""
     zero = ctx.zero
-
-    @register_jitable
-    def init(i, I, P):
-        return (zero, zero, zero)
+    init = make_boundary_store(ctx)[0]
 
     @register_jitable
     def store(i, I, P, acc):
