@@ -48,8 +48,9 @@ class ProbeWriter:
 ProbePoints = namedtuple("ProbePoints", "x sum_p sum_w sum_c cell start")
 ProbeFluid = namedtuple("ProbeFluid", "x p rho m dvdt cell start")
 
-#: below this kernel sum (sum_j W V_j; about 1 inside the fluid, 1/2 on a wall) a sensor is dry
-DRY = 0.1
+#: below this kernel sum (sum_j W V_j; about 1 inside the fluid, 1/2 on a wall) a sensor is dry,
+#: as a boundary element is for its load
+from ..physics.loads import DRY  # noqa: E402
 #: a level gauge samples its line every dp / GAUGE_SAMPLES
 GAUGE_SAMPLES = 4
 

@@ -21,7 +21,8 @@ from numba.extending import register_jitable
 
 from .renormalization import make_hydrostatic_sample
 
-#: below this kernel sum an element is dry (as a pressure sensor, ``io.probes.DRY``)
+#: below this kernel sum (sum_j W V_j: about 1 inside the fluid, 1/2 on a wall) an element, or a
+#: pressure sensor (``io.probes``), is dry
 DRY = 0.1
 
 
