@@ -17,6 +17,9 @@ import pytest
 
 from wcsph.config import shipped_cases
 
+#: one worker fills the cache and runs every test that reads it
+pytestmark = pytest.mark.xdist_group("numba_cache")
+
 #: seconds from the start of set-up to the end of the first step of a warm run
 #: (the issue's bound; measured 0.2-0.7 s on a 2-core host)
 WARM_LIMIT_S = 2.0
