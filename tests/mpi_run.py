@@ -6,7 +6,7 @@ import sys
 import numpy as np
 
 from wcsph.config import load, parse_override
-from wcsph.solver import Simulation
+from wcsph import Simulation
 
 
 def run(case_name, sets, steps):

@@ -8,7 +8,8 @@ import pytest
 
 import wcsph
 from wcsph import geometry
-from wcsph.config import CaseError, load, validate
+from wcsph.config import load, validate
+from wcsph.errors import CaseError
 from wcsph.kernels import kernel_numpy
 
 # one scheme in the default suite, the other three behind the validation marker (the default

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import wcsph
-from wcsph.config import CaseError, load, validate
+from wcsph.config import load, validate
+from wcsph.errors import CaseError
 from wcsph.motion import Bodies
 from wcsph.validation import references as ref
 from wcsph.validation import couette, poiseuille, _tg_rate

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from wcsph.cli import main
-from wcsph.config import CaseError, load, shipped_cases, validate
+from wcsph.config import load, shipped_cases, validate
+from wcsph.errors import CaseError
 
 BASE = {
     "dim": 2, "dp": 0.05,

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import wcsph
-from wcsph.config import CaseError, validate
+from wcsph.config import validate
+from wcsph.errors import CaseError
 
 T_SMOOTH = 0.02
 DP = 0.01

@@ -8,7 +8,8 @@ import pytest
 
 from wcsph import Simulation
 from wcsph.cli import main
-from wcsph.config import CaseError, load
+from wcsph.config import load
+from wcsph.errors import CaseError
 
 INTEGRATORS = ["symplectic_euler", "verlet", "symplectic_verlet", "rk4", "rk45", "midpoint"]
 

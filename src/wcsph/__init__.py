@@ -12,8 +12,10 @@ _warnings.filterwarnings("ignore", category=_IRWarning)
 threads.configure()  # before any compiled loop starts Numba's threads
 numba_cache.install()  # an index left by an older wcsph is recompiled, not a traceback
 
-from .config import CaseError, load, validate
-from .solver import OutputError, RunInterrupted, Simulation, SimulationError
+from .config import load, validate
+from .errors import CaseError
+from .errors import OutputError, RunInterrupted, SimulationError
+from .run.simulation import Simulation
 
 __all__ = ["CaseError", "OutputError", "RunInterrupted", "Simulation", "SimulationError", "load", "validate", "run"]
 __version__ = "0.1.0"

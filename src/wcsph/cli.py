@@ -5,7 +5,8 @@ import os
 import sys
 from pathlib import Path
 
-from .config import CaseError, load, parse_override, read_toml, resolve, shipped_cases
+from .config import load, parse_override, read_toml, resolve, shipped_cases
+from .errors import CaseError
 
 
 EXAMPLES = """examples:
@@ -211,7 +212,8 @@ def _main(argv):
 
 def _run(args, print):
     """``wcsph run`` and ``wcsph resume``; ``print`` is silent on the ranks other than 0."""
-    from .solver import OutputError, RunInterrupted, Simulation, SimulationError
+    from .errors import OutputError, RunInterrupted, SimulationError
+    from .run.simulation import Simulation
 
     out = None
     try:

@@ -12,16 +12,13 @@ import tomllib
 from pathlib import Path
 
 from . import plugins
+from .errors import CaseError
 from .motion import MOTION
 from .open_boundary import OPEN_BOUNDARY
 from .open_boundary import check as check_open_boundaries
 from .registry import NONNEG, POS, REQUIRED, one_of
 
 CASES_DIR = Path(__file__).parent / "cases"
-
-
-class CaseError(ValueError):
-    """A case that cannot run, with a message naming the file and key."""
 
 
 # ---------------------------------------------------------------------------------- schema

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import CaseError
+from .errors import CaseError
 from .expressions import evaluate
 from .io.readers import GeometryError, face_elements, inside, read_points, read_surface, surface_distance
 from .kernels import SUPPORT

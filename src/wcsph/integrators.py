@@ -4,9 +4,10 @@ An integrator sees a particle set through ``StateView``: the state (x, v and, fo
 a continuity equation, rho), the derivatives the model last wrote (dvdt, drhodt), p and m
 (for the energy residual), and its own arrays (x_n v_n rho_n: the state at the start of the step; dv_t drho_t: the
 implicit midpoint's iterated derivatives; k: Runge-Kutta stages; w: per-stage
-coefficients). It calls back ``sim.evaluate(P)`` for the derivatives at the current state, and
-``sim.reduce(map, state, P)`` for a reduction map (over every process's particles in a
-decomposed run).
+coefficients). A step gets the run state (``run.state.State``): it calls ``state.evaluate(P)``
+for the derivatives at the current state, ``state.view(w)`` for the particles as the maps see
+them, and ``state.reduce(map, view, P)`` for a reduction map (over every process's particles
+in a decomposed run).
 A model without a continuity equation (density by summation) has ``continuity = False``; the
 integrator then leaves rho alone.
 
@@ -20,11 +21,9 @@ from collections import namedtuple
 import numpy as np
 from numba.extending import register_jitable
 
+from .errors import IntegrationError
+
 StateView = namedtuple("StateView", "x v dvdt rho drhodt p m x_n v_n rho_n dv_t drho_t k w")
-
-
-class IntegrationError(RuntimeError):
-    """The scheme could not make a step (an adaptive step fell below dtMin)."""
 
 
 # ------------------------------------------------------------------------------ shared
@@ -318,9 +317,9 @@ class SymplecticEuler(Integrator):
     order = 1
     stable_cfl, safe_cfl, summation_cfl = 0.05, 0.025, 0.25
 
-    def step(self, sim, P):
-        sim.evaluate(P)
-        self.maps[0](sim.state(), P)
+    def step(self, state, P):
+        state.evaluate(P)
+        self.maps[0](state.view(), P)
         return float(P.dt)
 
 
@@ -339,11 +338,11 @@ class Verlet(Integrator):
         self.every = int(self.settings.get("verlet_euler_interval", 40))
         self.count = 0
 
-    def step(self, sim, P):
+    def step(self, state, P):
         leapfrog, euler = self.maps
-        sim.evaluate(P)
+        state.evaluate(P)
         first = self.count == 0 or (self.every > 0 and self.count % self.every == 0)
-        (euler if first else leapfrog)(sim.state(), P)
+        (euler if first else leapfrog)(state.view(), P)
         self.count += 1
         return float(P.dt)
 
@@ -355,12 +354,12 @@ class SymplecticVerlet(Integrator):
     stable_cfl, safe_cfl = 0.4, 0.25
     evaluations = 2
 
-    def step(self, sim, P):
+    def step(self, state, P):
         predict, correct = self.maps
-        sim.evaluate(P)
-        predict(sim.state(), P)
-        sim.evaluate(P)
-        correct(sim.state(), P)
+        state.evaluate(P)
+        predict(state.view(), P)
+        state.evaluate(P)
+        correct(state.view(), P)
         return float(P.dt)
 
 
@@ -410,26 +409,26 @@ class RungeKutta(Integrator):
             return min(dt, self.dt_next)
         return dt
 
-    def _attempt(self, sim, P):
+    def _attempt(self, state, P):
         save, stage, _, _ = self.maps
-        save(sim.state(), P)
+        save(state.view(), P)
         for s in range(len(self.b)):
-            sim.evaluate(P)
-            stage(sim.state(self.stage_w[s]), P)
+            state.evaluate(P)
+            stage(state.view(self.stage_w[s]), P)
 
-    def step(self, sim, P):
+    def step(self, state, P):
         if self.b_hat is None:
-            self._attempt(sim, P)
+            self._attempt(state, P)
             return float(P.dt)
         if self.err_w is None:
             diff = [b - bh for b, bh in zip(self.b, self.b_hat)]
-            self.err_w = self._weights(diff, 0, (1.0 / sim.h, 1.0 / sim.c0, 1.0 / sim.rho0))
+            self.err_w = self._weights(diff, 0, (1.0 / state.h, 1.0 / state.c0, 1.0 / state.rho0))
         restore, error = self.maps[2], self.maps[3]
         rejected = 0
         while True:
             dt = float(P.dt)
-            self._attempt(sim, P)
-            err = sim.reduce(error, sim.state(self.err_w), P)[2]
+            self._attempt(state, P)
+            err = state.reduce(error, state.view(self.err_w), P)[2]
             self.stats = {"rk_error": err, "rk_rejected": rejected}
             if not self.adaptive:
                 return dt
@@ -438,13 +437,13 @@ class RungeKutta(Integrator):
                 self.dt_next = dt * grow
                 return dt
             rejected += 1
-            restore(sim.state(), P)
+            restore(state.view(), P)
             new = dt * (grow if math.isfinite(err) else 0.2)
-            if new < sim.case["time"]["dtMin"] or rejected > 30:
+            if new < self.settings.get("dtMin", 0.0) or rejected > 30:
                 raise IntegrationError(
                     f"RK45 error control: step rejected {rejected} times, dt = {new:.3g} s "
                     f"(error {err:.3g} > tolerance {self.tol:.3g})")
-            P = sim.params_for(new)
+            P = state.params_for(new)
 
 
 class RK4(RungeKutta):
@@ -533,21 +532,21 @@ class ImplicitMidpoint(Integrator):
             self._w[om] = self.backend.to_device(np.array([om], dtype=self.dtype))
         return self._w[om]
 
-    def step(self, sim, P):
+    def step(self, state, P):
         begin, guess, midstate, residual, relax, finish = self.maps
         if not self.primed:
-            sim.evaluate(P)
-            guess(sim.state(), P)
+            state.evaluate(P)
+            guess(state.view(), P)
             self.primed = True
-        begin(sim.state(), P)
+        begin(state.view(), P)
         om_next = self.relax
         prev = None
         best, since_best = float("inf"), 0
         it, res = 0, float("inf")
         for it in range(1, self.max_iter + 1):
-            midstate(sim.state(), P)
-            sim.evaluate(P)
-            r, size = sim.reduce(residual, sim.state(), P)[:2]
+            midstate(state.view(), P)
+            state.evaluate(P)
+            r, size = state.reduce(residual, state.view(), P)[:2]
             res = r / size if size > 0 else (0.0 if r == 0 else float("inf"))
             if res < 0.5 * best:
                 best, since_best = res, 0
@@ -566,11 +565,11 @@ class ImplicitMidpoint(Integrator):
                     if prev > 0 and res / prev > self.decay:
                         om_next = self.increment + (1.0 - self.increment) * om_next
                     om = om_next
-            relax(sim.state(self._weight(om)), P)
+            relax(state.view(self._weight(om)), P)
             if done:
                 break
             prev = res
-        finish(sim.state(), P)
+        finish(state.view(), P)
         self.stats = {"midpoint_iterations": it, "midpoint_residual": res, "midpoint_relax": om_next}
         return float(P.dt)
 

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import CaseError
 from .registry import NONNEG, one_of
 
 #: the ``motion`` table of a wall source, in the config schema's form
@@ -43,8 +44,6 @@ class Motion:
     """d(t), theta(t) and their rates for one ``motion`` table (validated)."""
 
     def __init__(self, spec, dim, source_dir=".", key="motion"):
-        from .config import CaseError
-
         self.spec, self.dim = spec, dim
         self.kind = spec["kind"]
         zero = [0.0] * dim

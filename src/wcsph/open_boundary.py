@@ -143,23 +143,23 @@ class OpenBoundaries:
         return ok
 
     # ------------------------------------------------------------------ per step
-    def before(self, sim):
+    def before(self, state):
         """Remember the buffer particles' state at the start of the step (after the sort)."""
-        kind = sim.backend.to_host(sim.fluid["kind"])
+        kind = state.backend.to_host(state.fluid["kind"])
         idx = np.nonzero(kind > 0)[0]
-        x, v, rho = (sim.backend.to_host(sim.fluid[k]) for k in ("x", "v", "rho"))
+        x, v, rho = (state.backend.to_host(state.fluid[k]) for k in ("x", "v", "rho"))
         self._saved = (idx, x[:, idx].copy(), v[:, idx].copy(), rho[idx].copy())
 
-    def after(self, sim, dt):
+    def after(self, state, dt):
         """Prescribe the buffers after the step, then convert, create and remove particles."""
-        be, f = sim.backend, sim.fluid
+        be, f = state.backend, state.fluid
         idx, x0, v0, rho0 = self._saved
         x, v, rho, kind = (np.array(be.to_host(f[k])) for k in ("x", "v", "rho", "kind"))
-        t = sim.t + dt
+        t = state.t + dt
         x[:, idx] = x0 + dt * v0  # buffers move with their own velocity
         v[:, idx] = v0
         rho[idx] = rho0
-        self._prescribe(sim, x, v, rho, kind, t)
+        self._prescribe(state, x, v, rho, kind, t)
         keep = np.ones(f.n, dtype=bool)
         new_x, new_v, new_rho, new_kind = [], [], [], []
         for k, ob in enumerate(self.specs):
@@ -188,13 +188,13 @@ class OpenBoundaries:
         for name, a in (("x", x), ("v", v), ("rho", rho), ("kind", kind)):
             f[name] = be.to_device(a.astype(f[name].dtype))
         if new is not None or not keep.all():
-            resize(sim, keep, new)
+            resize(state, keep, new)
 
-    def _prescribe(self, sim, x, v, rho, kind, t):
+    def _prescribe(self, state, x, v, rho, kind, t):
         """Inlet velocities (and densities from a prescribed pressure), outlet densities (and
         velocities from a formula); the rest extrapolated from the fluid."""
-        eos_rho = sim.model.q.eos_density
-        P = sim.P._replace(**{f: float(val) for f, val in sim.P._asdict().items()})
+        eos_rho = state.model.q.eos_density
+        P = state.P._replace(**{f: float(val) for f, val in state.P._asdict().items()})
         need_rho, need_v = np.zeros(len(kind), bool), np.zeros(len(kind), bool)
         for k, ob in enumerate(self.specs):
             mine = kind == k + 1
@@ -211,7 +211,7 @@ class OpenBoundaries:
                 need_rho |= mine
         need = need_rho | need_v
         if need.any():
-            sums = self._extrapolate(sim, x, kind, np.nonzero(need)[0])
+            sums = self._extrapolate(state, x, kind, np.nonzero(need)[0])
             w, srho, sv = sums
             ok = w > 1e-6
             sel = np.nonzero(need)[0]
@@ -223,31 +223,31 @@ class OpenBoundaries:
                 m = need_v[good]
                 v[:, good[m]] = sv[:, ok][:, m] / w[ok][m]
 
-    def _extrapolate(self, sim, x, kind, sel):
+    def _extrapolate(self, state, x, kind, sel):
         """Shepard sums (sum W V, sum W V rho, sum W V v) over fluid particles around the
         mirror images of particles ``sel`` in their boundary planes."""
-        be = sim.backend
+        be = state.backend
         pts = x[:, sel].copy()
         for k in range(len(self.specs)):
             mine = kind[sel] == k + 1
             a = self.axis[k]
             pts[a, mine] = 2 * self.plane[k] - pts[a, mine]
-        dt = sim.dtype
+        dt = state.dtype
         s = ParticleSet("mirror", self.dim, {"x": be.to_device(pts.astype(dt))})
         for name in ("sum_w", "sum_rho"):
             s.add(name, "scalar", dt, be)
         s.add("sum_v", "vector", dt, be)
         s["order"] = be.to_device(np.arange(pts.shape[1], dtype=np.int64))
-        be.sort(s, sim.grid)
+        be.sort(s, state.grid)
         if self._sampler is None:
             from .physics import Ctx
 
-            self._sampler = _make_sampler(Ctx.create(dt, self.dim, sim.case["model"]["kernel"]), be,
-                                          sim.model.periodic)
-        fl = sim.fluid
+            self._sampler = _make_sampler(Ctx.create(dt, self.dim, state.case["model"]["kernel"]), be,
+                                          state.model.periodic)
+        fl = state.fluid
         # the fluid's cell list is the step's: positions have moved by far less than a cell
         J = ExtrapFluid(fl["x"], fl["v"], fl["rho"], fl["m"], fl["kind"], fl["cell"], fl["start"])
-        self._sampler(s.view(ExtrapPoints), J, J, sim.P, sim.G)
+        self._sampler(s.view(ExtrapPoints), J, J, state.P, state.G)
         order = np.argsort(be.to_host(s["order"]))
         w, r, v = (be.to_host(s[k]).astype(float) for k in ("sum_w", "sum_rho", "sum_v"))
         return w[order], r[order], v[:, order]
@@ -289,12 +289,12 @@ def _make_sampler(ctx, backend, periodic):
     return backend.make_pass(dim, ctx.dtype, init, pair, store, periodic=periodic)
 
 
-def resize(sim, keep, new):
+def resize(state, keep, new):
     """Drop the fluid particles not in ``keep`` and append ``new`` (a dict of x, v, rho,
     kind for the particles created): every per-particle array of the fluid set, on the host.
     A new particle's mass is the particle mass, its id the next free one, a saved copy of a
     field (an integrator's ``v_n``, ``rho_n``) its current value, every other field zero."""
-    be, f = sim.backend, sim.fluid
+    be, f = state.backend, state.fluid
     n_new = 0 if new is None else new["x"].shape[1]
     scratch_or_new = {}
     next_id = None
@@ -304,7 +304,7 @@ def resize(sim, keep, new):
             if k in new:
                 add = np.asarray(new[k], dtype=a.dtype)
             elif k == "m":
-                add = np.full(n_new, sim.mass, dtype=a.dtype)
+                add = np.full(n_new, state.mass, dtype=a.dtype)
             elif k == "id":
                 if next_id is None:
                     next_id = int(np.asarray(be.to_host(f["id"])).max()) + 1

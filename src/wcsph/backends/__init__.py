@@ -8,7 +8,7 @@ def get_backend(name):
 
         return CpuBackend()
     if name == "cuda":
-        from ..config import CaseError
+        from ..errors import CaseError
 
         try:
             from numba import cuda

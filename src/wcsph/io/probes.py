@@ -4,6 +4,8 @@ from collections import namedtuple
 
 import numpy as np
 
+from ..errors import CaseError
+
 
 def energies(x, v, m, gravity):
     """Kinetic 0.5 sum m |v|^2 and potential -sum m g.x (zero at the origin)."""
@@ -97,20 +99,18 @@ class PointProbes:
       base when it is dry.
     """
 
-    def __init__(self, sim):
+    def __init__(self, state):
         from ..particles import ParticleSet
         from ..physics import Ctx
 
-        case = sim.case
-        self.sim = sim
+        case = state.case
+        self.state = state
         self.specs = case["probes"]
         pts, self.slices = [], []
-        lo, hi = sim.domain
+        lo, hi = state.domain
         for k, pr in enumerate(self.specs):
             base = np.asarray(pr["position"], dtype=float)
             if np.any(base < lo) or np.any(base >= hi):
-                from ..config import CaseError
-
                 raise CaseError(f"{case['_source']}: probes[{k}].position: {pr['position']} lies outside "
                                 f"the domain {np.round(lo, 6).tolist()} .. {np.round(hi, 6).tolist()}")
             if pr["kind"] == "pressure":
@@ -119,7 +119,7 @@ class PointProbes:
                 # the grid is half open, [lo, hi): the line stops just below the domain's top
                 room = (hi[-1] - base[-1]) * (1.0 - 1e-6)
                 length = min(pr["length"] or room, room)
-                m = max(2, int(np.ceil(length / (sim.dp / GAUGE_SAMPLES))) + 1)
+                m = max(2, int(np.ceil(length / (state.dp / GAUGE_SAMPLES))) + 1)
                 line = np.repeat(base[:, None], m, axis=1)
                 line[-1] = base[-1] + np.linspace(0.0, length, m)
             self.slices.append(slice(sum(p.shape[1] for p in pts), sum(p.shape[1] for p in pts) + line.shape[1]))
@@ -130,16 +130,16 @@ class PointProbes:
         allp = np.concatenate(pts, axis=1)
         self.base = allp
         self.heights = allp[-1]
-        be, dtype = sim.backend, sim.dtype
-        self.points = ParticleSet("probes", sim.dim, {"x": be.to_device(allp.astype(dtype))})
+        be, dtype = state.backend, state.dtype
+        self.points = ParticleSet("probes", state.dim, {"x": be.to_device(allp.astype(dtype))})
         for name in ("sum_p", "sum_w", "sum_c"):
             self.points.add(name, "scalar", dtype, be)
         self.points["order"] = be.to_device(np.arange(self.n, dtype=np.int64))
-        if be.sort(self.points, sim.grid):  # a point outside the grid would shift every later column
+        if be.sort(self.points, state.grid):  # a point outside the grid would shift every later column
             raise RuntimeError("a probe point lies outside the cell grid")
         self.order = np.argsort(be.to_host(self.points["order"]))
-        ctx = Ctx.create(dtype, sim.dim, case["model"]["kernel"])
-        self.sampler = _make_sampler(ctx, be, sim.model.periodic)
+        ctx = Ctx.create(dtype, state.dim, case["model"]["kernel"])
+        self.sampler = _make_sampler(ctx, be, state.model.periodic)
 
     def columns(self):
         return [p["name"] for p in self.specs]
@@ -147,15 +147,15 @@ class PointProbes:
     def sample(self):
         """{probe name: value} at the current state (after refreshing the model's p from
         the current density)."""
-        sim = self.sim
-        sim.settle()
+        state = self.state
+        state.settle()
         if not self.n:
             return {}
-        f = sim.fluid
+        f = state.fluid
         fluid = ProbeFluid(f["x"], f["p"], f["rho"], f["m"], f["dvdt"], f["cell"], f["start"])
-        self.sampler(self.points.view(ProbePoints), fluid, fluid, sim.P, sim.G)
-        sp, sw, sc = (sim.backend.to_host(self.points[k]).astype(float)[self.order] for k in ("sum_p", "sum_w", "sum_c"))
-        par = sim.par
+        self.sampler(self.points.view(ProbePoints), fluid, fluid, state.P, state.G)
+        sp, sw, sc = (state.backend.to_host(self.points[k]).astype(float)[self.order] for k in ("sum_p", "sum_w", "sum_c"))
+        par = state.par
         if par is not None:  # each point from the rank whose slab holds it (its neighbours are there)
             mine = par.owner(par.column(self.base)) == par.rank
             sp, sw, sc = par.sum(np.stack([sp * mine, sw * mine, sc * mine]))

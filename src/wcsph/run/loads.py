@@ -1,0 +1,91 @@
+"""The fluid's force and torque on each named body, for probes.csv."""
+import numpy as np
+
+from .. import parallel
+from ..particles import ParticleSet
+
+
+def body_columns(bodies, dim):
+    """The probes.csv columns of the named bodies' loads."""
+    cols = []
+    for name in bodies.names:
+        if name:
+            cols += [f"{name}_f{c}" for c in "xyz"[:dim]]
+            cols += [f"{name}_torque"] if dim == 2 else [f"{name}_t{c}" for c in "xyz"]
+    return cols
+
+
+def body_loads(state, bodies):
+    """Force and torque of the fluid on each named body: {NAME_fx, NAME_fy[, NAME_fz],
+    NAME_torque (2D) or NAME_tx, NAME_ty, NAME_tz (3D)}, the torque about the body's
+    centre.
+
+    Boundary elements: the sum of the body's element loads (``physics.loads``: the wall's
+    own pressure p_b n_b S_b and the reaction of the viscous wall term), the torque with
+    each element's lever arm. Boundary particles: minus the sum of m_i (a_i - a_i without
+    the body) over the fluid, the derivatives evaluated once with every wall and once
+    without the body's walls at the current state (every field they write is restored
+    after); the torque with each fluid particle's lever arm (an O(h) approximation)."""
+    named = [b for b, name in enumerate(bodies.names) if name]
+    if not named:
+        return {}
+    if state.model.boundary == "elements":
+        loads = _element_loads(state, bodies, named)
+    else:
+        loads = _particle_loads(state, bodies, named)
+    out, dim, par = {}, state.dim, state.par
+    for b, (force, torque) in zip(named, loads):
+        if par is not None:
+            force, torque = np.split(par.sum(np.concatenate([force, np.ravel(torque)])), [dim])
+        name = bodies.names[b]
+        for a, c in enumerate("xyz"[:dim]):
+            out[f"{name}_f{c}"] = float(force[a])
+        if dim == 2:
+            out[f"{name}_torque"] = float(np.ravel(torque)[0])
+        else:
+            for a, c in enumerate("xyz"):
+                out[f"{name}_t{c}"] = float(torque[a])
+    return out
+
+
+def _element_loads(state, bodies, named):
+    be, w, par = state.backend, state.walls, state.par
+    state.settle()
+    load = be.to_host(state.model.wall_loads(state.fluid, w, state.P, state.G)).astype(float)
+    x, body = state.host(w, "x", "body")
+    x = x.astype(float)
+    if par is not None:  # each element from the rank whose slab holds it (all its neighbours are there)
+        load = load * (par.owner(par.column(x)) == par.rank)
+    out = []
+    for b in named:
+        sel = body == b
+        f = load[:, sel]
+        r = x[:, sel] - bodies.reference(b, state.t)[:, None]
+        torque = [np.sum(r[0] * f[1] - r[1] * f[0])] if state.dim == 2 else np.cross(r.T, f.T).sum(axis=0)
+        out.append((f.sum(axis=1), np.asarray(torque)))
+    return out
+
+
+def _particle_loads(state, bodies, named):
+    be, fl, par = state.backend, state.fluid, state.par
+    if par is not None:
+        par.update(fl, parallel.STATE)
+    saved = {k: be.to_host(fl[k]).copy() for k in fl.per_particle() if k in fl.scratch or k == "rho"}
+    state.model.derivatives(fl, state.walls, state.P, state.G, state.halo)
+    mine = be.to_host(fl["owned"]) != 0 if par is not None else slice(None)
+    x, m, a_all = (a.astype(float)[..., mine] for a in state.host(fl, "x", "m", "dvdt"))
+    out = []
+    host = {k: be.to_host(state.walls[k]) for k in state.walls.per_particle() if k != "cell"}
+    for b in named:
+        keep = host["body"] != b
+        rest = ParticleSet("walls", state.dim, {k: be.to_device(np.ascontiguousarray(a[..., keep]))
+                                                 for k, a in host.items()})
+        be.sort(rest, state.grid)
+        state.model.derivatives(fl, rest, state.P, state.G, state.halo)
+        f = m * (a_all - be.to_host(fl["dvdt"]).astype(float)[..., mine])  # on the fluid, from the body
+        r = x - bodies.reference(b, state.t)[:, None]
+        torque = [-np.sum(r[0] * f[1] - r[1] * f[0])] if state.dim == 2 else -np.cross(r.T, f.T).sum(axis=0)
+        out.append((-f.sum(axis=1), np.asarray(torque)))
+    for k, a in saved.items():
+        fl[k] = be.to_device(a)
+    return out

@@ -1,0 +1,177 @@
+"""The time loop: steps to the end time with the output's callbacks between steps, stops
+cleanly on a signal or a non-physical state, and sums the run up (``run.json``).
+
+Between steps three callbacks fall due on simulated time, as TrixiParticles.jl's do: a VTK
+frame every ``output.interval`` (with a probes row unless ``probe_interval`` is set), a
+probes row every ``output.probe_interval``, a checkpoint every ``output.checkpoint_interval``.
+"""
+import time
+from pathlib import Path
+
+from ..errors import OutputError, RunInterrupted, SimulationError
+from ..progress import Progress
+from .output import Output
+from .signals import StopRequest
+
+
+class Every:
+    """A callback due each ``interval`` of simulated time from ``start`` (never when the
+    interval is 0); ``next`` is where it stands (saved in checkpoints)."""
+
+    def __init__(self, interval, start, fn):
+        self.interval, self.next, self.fn = interval, start, fn
+
+    def due(self, t, slack):
+        return self.interval > 0 and t >= self.next - slack
+
+    def __call__(self):
+        self.fn()
+        self.next += self.interval
+
+
+def run(sim, output, end_time, progress):
+    """Run ``sim`` (a ``Simulation``) to ``end_time``; the summary dict. A file that cannot be
+    written stops the run with an ``OutputError``; every file written before is whole."""
+    try:
+        return _run(sim, output, end_time, progress)
+    except OSError as e:
+        ckpt = Path(output) / "checkpoint.npz" if output is not None else None
+        last = (f"; the last checkpoint ({ckpt}) is intact" if ckpt is not None and ckpt.exists() else "")
+        raise OutputError(f"cannot write to {output}: {e.strerror or e}; the files written before "
+                          f"are whole{last}") from None
+
+
+def _run(sim, output, end_time, progress):
+    state, case = sim.state, sim.case
+    end = end_time if end_time is not None else case["time"]["end"]
+    oc = case["output"]
+    writer = None
+    resumed = sim.resumed_output or {}
+    if output is not None:
+        writer = Output(state, Path(output), oc, sim.probes, sim.bodies, sim.integrator, sim.save_checkpoint,
+                        sim.resumed_output)
+    max_steps = case["time"]["max_steps"]
+    par = state.par
+    show = (oc["progress"] if progress is None else progress) and (par is None or par.rank == 0)
+    probe_every = oc["probe_interval"]  # 0: a probes.csv row with every frame
+    frames = Every(oc["interval"] or end / 20, resumed.get("next_out", state.t),
+                   lambda: writer.write(sample=not probe_every))
+    rows = Every(probe_every, resumed.get("next_probe", state.t), lambda: writer.sample())
+    checkpoints = Every(oc["checkpoint_interval"], state.t + oc["checkpoint_interval"],
+                        lambda: writer.checkpoint(frames.next, rows.next))
+    slack = 1e-9 * end  # round-off in the summed time; not worth a step of its own
+    clock = _Clock()
+    status, message = "completed", ""
+    stop = StopRequest()
+    try:
+        with Progress(end, enabled=show) as bar, stop:
+            while True:
+                written = False
+                if writer is not None:
+                    if frames.due(state.t, slack):
+                        clock.io(frames)
+                        written = True
+                    if rows.due(state.t, slack):
+                        clock.io(rows)
+                    if checkpoints.due(state.t, slack):
+                        checkpoints()
+                stopping = stop.signal is not None
+                if par is not None and par.any(stopping):  # every rank stops at the same step
+                    stopping = True
+                    stop.signal = stop.signal or "a signal to another rank"
+                if stopping:
+                    status = "interrupted"
+                    message = f"stopped by {stop.signal} at t = {state.t:.6g} s (step {state.steps})"
+                    if writer is not None:
+                        if not written:
+                            writer.write()
+                        message += f"; state written to {writer.last_good}"
+                    break
+                if state.t >= end - slack or (max_steps and state.steps >= max_steps):
+                    break
+                dt = min(sim.time_step(), end - state.t)
+                t0 = time.perf_counter()
+                sim.step(dt)
+                if writer is not None:
+                    writer.log_step()
+                clock.stepped(t0, state.steps)
+                bar.update(state.t, state.steps, clock.rate(state.steps))
+    except SimulationError as e:
+        status, message = "failed", str(e)
+        if writer is not None:
+            writer.write(failed=True)
+            message += f"; last good output: {writer.last_good}"
+    if writer is not None and status != "failed":
+        writer.checkpoint(frames.next, rows.next)  # a clean stop or the end: the run can be continued
+    summary = _summary(sim, status, message, clock)
+    if writer is not None:
+        writer.close(summary)
+    if status == "failed":
+        raise SimulationError(message)
+    if status == "interrupted":
+        raise RunInterrupted(message)
+    return summary
+
+
+class _Clock:
+    """Wall time of the run, of its output, of its first step (compiling) and of the steps
+    after it (the rate)."""
+
+    def __init__(self):
+        self.start = time.perf_counter()
+        self.io_time = 0.0
+        self.compile_time = None
+        self.t_loop = None
+        self.steps0 = 0
+        self.io0 = 0.0
+
+    def io(self, callback):
+        t0 = time.perf_counter()
+        callback()
+        self.io_time += time.perf_counter() - t0
+
+    def stepped(self, t0, steps):
+        if self.compile_time is None:
+            self.compile_time = time.perf_counter() - t0
+            self.t_loop = time.perf_counter()
+            self.steps0, self.io0 = steps, self.io_time
+
+    def stepping(self):
+        """Seconds stepping after the first step, less the output's."""
+        if self.t_loop is None:
+            return 0.0
+        return time.perf_counter() - self.t_loop - (self.io_time - self.io0)
+
+    def rate(self, steps):
+        elapsed = time.perf_counter() - self.t_loop
+        return (steps - self.steps0) / max(elapsed - (self.io_time - self.io0), 1e-9)
+
+
+def _summary(sim, status, message, clock):
+    state, case, par = sim.state, sim.case, sim.state.par
+    wall = time.perf_counter() - clock.start
+    n_fluid = state.n_fluid()
+    dropped = state.dropped if par is None else int(par.sum([state.dropped])[0])
+    stepping = clock.stepping()
+    timed_steps = state.steps - clock.steps0 if clock.t_loop else 0
+    summary = {
+        "case": case["name"], "status": status, "message": message, "model": case["model"]["name"],
+        "backend": state.backend.name, "precision": case["precision"], "dim": state.dim, "dp": state.dp,
+        "h": state.h, "speed_of_sound": state.c0, "particle_mass": state.mass,
+        "n_fluid": n_fluid, "n_boundary": state.walls.n, "dropped": dropped,
+        "steps": state.steps, "evaluations": state.evaluations, "end_time": state.t, "wall_time_s": wall,
+        "compile_time_s": sim.setup_time + (clock.compile_time or 0.0), "io_time_s": clock.io_time,
+        "stepping_time_s": stepping,
+        "particle_steps_per_s": n_fluid * timed_steps / stepping if stepping > 0 else 0.0,
+    }
+    if par is not None:  # the decomposition: ranks, cuts, the exchanges' share of the time
+        share = par.sum([par.exchange_time, par.n_owned]) / par.size
+        summary["parallel"] = {
+            "ranks": par.size, "axis": "xyz"[par.axis], "cuts": [int(c) for c in par.cuts],
+            "rebalances": par.rebalances, "imbalance": par.imbalance,
+            "migrated": int(par.sum([par.migrated])[0]),
+            "exchange_time_s_mean": float(share[0]), "exchange_time_s_max": float(par.max([par.exchange_time])[0]),
+            "particles_per_rank_max": int(par.max([par.n_owned])[0]), "particles_per_rank_mean": float(share[1])}
+    if sim.open is not None:  # particles created at inlets, removed at outlets
+        summary["open_boundary"] = sim.open.summary()
+    return summary

@@ -1,0 +1,105 @@
+"""``Simulation``: a case set up (``run.setup``) and the ordered stages of its step.
+
+A step is the list ``stages``, each a callable of the run state (``run.state.State``):
+
+1. ``Sort``: the particles by cell (in a decomposed run: migrated, ghosts exchanged);
+2. the step's parameters (``Integrate.parameters``);
+3. ``InflowBefore``: the open boundaries' buffers kept (cases with open boundaries);
+4. ``Integrate``: the integrator's evaluations and maps;
+5. ``Correct``: the model's after-step passes;
+6. ``InflowAfter``: buffers prescribed, particles enter and leave;
+7. ``Advance``: periodic wrap, time and step count;
+8. ``MoveWalls``: moving walls to the new time;
+9. ``Check``: speeds for the next step, and the stop on a non-physical state.
+
+Between steps the time loop (``run.loop``) writes frames, probes and checkpoints and
+watches for signals.
+"""
+import time
+
+from .. import parallel
+from ..backends import get_backend
+from ..errors import CaseError
+from ..io.probes import PointProbes
+from . import checkpoint, loop, setup
+from .advance import Advance
+from .check import Check
+from .correct import Correct
+from .inflow import InflowAfter, InflowBefore
+from .integrate import Integrate
+from .loads import body_loads
+from .sort import Sort
+from .timestep import TimeStep
+from .walls import MoveWalls
+
+
+class Simulation:
+    """A case set up on a backend, ready to step. ``case`` is a validated case dict.
+    ``comm``: the MPI communicator to share the case over (``parallel``); by default the
+    world of ``mpiexec``/``srun`` when started by one with several processes, else none.
+
+    The run state's fields read through (``sim.fluid``, ``sim.t``, ``sim.P``, ...)."""
+
+    def __init__(self, case, backend=None, comm="world"):
+        t_setup = time.perf_counter()
+        try:
+            comm = parallel.world() if comm == "world" else comm
+        except parallel.ParallelError as e:
+            raise CaseError(str(e)) from None
+        name = backend or case["backend"]
+        if comm is not None and comm.Get_size() > 1 and name == "cuda":
+            parallel.select_gpu(comm)  # before the backend makes a CUDA context
+        built = setup.build(case, get_backend(name), comm)
+        self.__dict__.update(state=built.state, case=case, integrator=built.integrator, bodies=built.bodies,
+                             open=built.open, cfl=built.cfl, warnings=built.warnings, resumed_output=None)
+        self.probes = PointProbes(self.state)
+        self.time_step_rule = TimeStep(case["time"], self.cfl, self.integrator, self.model.kinematic_viscosity())
+        integrate = Integrate(self.integrator)
+        inflow = [InflowBefore(self.open)] if self.open is not None else []
+        outflow = [InflowAfter(self.open)] if self.open is not None else []
+        self.stages = [Sort(), integrate.parameters, *inflow, integrate, Correct(), *outflow, Advance(),
+                       MoveWalls(self.bodies), Check()]
+        self.setup_time = time.perf_counter() - t_setup  # compiles (or loads) the loops
+
+    def __getattr__(self, name):  # the run state's fields
+        return getattr(self.__dict__["state"], name)
+
+    def __setattr__(self, name, value):
+        if name not in self.__dict__ and "state" in self.__dict__ and hasattr(self.state, name):
+            setattr(self.state, name, value)
+        else:
+            self.__dict__[name] = value
+
+    def time_step(self):
+        """The next step's size (``run.timestep``)."""
+        return self.time_step_rule(self.state)
+
+    def stable_time_step(self):
+        return self.time_step_rule.stable(self.state)
+
+    def step(self, dt):
+        """One time step of at most ``dt`` through the stages; returns the step taken (an
+        adaptive integrator may take less)."""
+        self.state.dt = dt
+        for stage in self.stages:
+            stage(self.state)
+        return self.state.dt
+
+    def body_loads(self):
+        """Force and torque of the fluid on each named body (``run.loads``)."""
+        return body_loads(self.state, self.bodies)
+
+    def save_checkpoint(self, path, output_state=None):
+        checkpoint.save(path, self.state, self.integrator, self.open, output_state)
+
+    read_checkpoint = staticmethod(checkpoint.read)
+
+    def restore(self, meta, arrays, source="checkpoint"):
+        """Continue from a checkpoint of the same case (``run.checkpoint``)."""
+        self.resumed_output = checkpoint.restore(self.state, self.integrator, self.open, meta, arrays, source)
+        MoveWalls(self.bodies)(self.state)
+
+    def run(self, output=None, end_time=None, progress=None):
+        """Step to ``end_time`` (default the case's); write output to directory ``output``
+        (nothing if None). Returns the run summary (also written to ``run.json``)."""
+        return loop.run(self, output, end_time, progress)
