@@ -16,9 +16,9 @@ from .config import load, validate
 from .errors import CaseError
 from .errors import OutputError, RunInterrupted, SimulationError
 from .run.simulation import Simulation
+from .version import __version__
 
 __all__ = ["CaseError", "OutputError", "RunInterrupted", "Simulation", "SimulationError", "load", "validate", "run"]
-__version__ = "0.1.0"
 
 
 def run(case, output=None, overrides=(), **kwargs):

@@ -25,7 +25,7 @@ with: wcsph resume runs/dam_break_2d --end-time 2"""
 
 
 def _parser():
-    from . import __version__
+    from .version import __version__
 
     p = argparse.ArgumentParser(prog="wcsph", description="Weakly compressible SPH solver for free-surface "
                                 "flows (classic WCSPH and WCSPH-BI), on the CPU or an NVIDIA GPU.",

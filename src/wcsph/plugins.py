@@ -7,9 +7,33 @@ Importing this module imports every physics family, which registers its choices.
 from collections import namedtuple
 from dataclasses import dataclass
 
+import importlib
+import os
+import pkgutil
+import sys
+
 from . import kernels  # noqa: F401  (registers the kernels)
-from .physics import collision, correction, density, diffusion, eos, pressure, shifting, viscosity, walls, xsph  # noqa: F401
+from . import physics
 from .registry import NONNEG, POS, SLOTS, Param, one_of
+
+#: modules outside the package that register choices, imported after the physics families:
+#: a comma-separated list of importable module names
+PLUGINS_VARIABLE = "WCSPH_PLUGINS"
+
+
+def _import_families():
+    """Every module of ``physics/`` (each family file registers its choices on import: a new
+    one needs no list to be edited), then the modules named by ``WCSPH_PLUGINS``."""
+    for info in sorted(pkgutil.iter_modules(physics.__path__), key=lambda m: m.name):
+        importlib.import_module(f"{physics.__name__}.{info.name}")
+    for name in filter(None, (n.strip() for n in os.environ.get(PLUGINS_VARIABLE, "").split(","))):
+        try:
+            importlib.import_module(name)
+        except Exception as e:  # a setting of the environment, not of a case: one line, then stop
+            sys.exit(f"wcsph: {PLUGINS_VARIABLE}: cannot import the plug-in module {name!r}: {e}")
+
+
+_import_families()
 
 PRESETS = ("classic", "bi")
 

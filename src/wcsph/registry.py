@@ -14,7 +14,9 @@ A **choice** declares everything the rest of the code needs to know about it:
 * ``values(q)``: how those parameters (and the case quantities ``q``) enter ``P``, the
   parameter tuple of the compiled loops: a dict of P fields;
 * ``build``: the factory of its compiled pieces, called by the model with a ``Ctx``;
-* ``walls``: the wall models it works with; ``requires``: other slots' choices it needs.
+* ``walls``: the wall models it works with; ``requires``: other slots' choices it needs;
+* ``nu(q)``: the kinematic viscosity its term acts with, for the viscous time-step limit
+  0.125 h^2 / nu (Morris et al. 1997); None when it limits nothing.
 
 ``config`` builds the ``[model]`` schema from these declarations, ``models.wcsph`` builds the
 passes from them, and the README's slot table and every error message name them. Adding a
@@ -67,6 +69,7 @@ class Choice:
     walls: tuple = ("particles", "elements")
     requires: dict = field(default_factory=dict)  # slot -> tuple of allowed choice names
     check: Callable = None  # model table -> (key, message) of a bad combination of its values, or None
+    nu: Callable = None  # q -> the kinematic viscosity its term acts with: the viscous time-step limit
     boundary: str = None  # wall models only: "particles" or "elements"
     consistent: bool = False  # wall models only: Shepard renormalization, wall pressure interpolated
     slot: str = ""

@@ -1,7 +1,2 @@
-"""The model: one class composed from the plug-in slots; ``model.name`` picks the defaults."""
-
-
-def get_model(name):
-    from .wcsph import WCSPH
-
-    return WCSPH
+"""The model: one class (``wcsph.WCSPH``) composed from the plug-in slots; ``model.name`` only
+picks the defaults of the slots (``plugins.PRESETS``)."""

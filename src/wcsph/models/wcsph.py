@@ -34,7 +34,6 @@ from ..physics.density import make_akinci_volume
 from ..physics.loads import make_element_loads
 from ..physics.renormalization import (make_boundary_interpolation, make_boundary_store, make_noslip_velocity,
                                       make_shepard, make_wall_pressure)
-from ..physics.viscosity import kinematic_viscosity
 from ..physics.wall_corrections import make_init as make_wall_init
 from ..physics.wall_corrections import make_store as make_wall_store
 from ..physics.wall_corrections import make_wall_corrections
@@ -287,7 +286,9 @@ class WCSPH:
         return rho0 * dp ** self.dim
 
     def kinematic_viscosity(self):
-        return kinematic_viscosity(self.case)
+        """The largest kinematic viscosity a selected choice declares (``Choice.nu``), for
+        the viscous time-step limit; 0 when none does."""
+        return max([c.nu(self.q) for c in self.sel.values() if c.nu is not None], default=0.0)
 
     def initial_density(self, x, tops, P, gravity, pressure=None):
         """Continuity density: rho = EOS^-1(p0 + p) with p the block's ``pressure`` where

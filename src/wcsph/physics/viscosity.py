@@ -107,6 +107,11 @@ def _values(coef):
     return values
 
 
+def physical_nu(q):
+    """nu = mu / rho0 of a physical viscosity."""
+    return q.m["dynamicViscosity"] / q.ph["rho0"]
+
+
 add("viscous", Choice("None", "-", "inviscid"))
 add("viscous", Choice(
     "ArtificialViscosity", "WCSPH-BI spec; Monaghan (1992)", "alpha h c0 sum_j m_j psi_ij / rho_ij grad W_ij, approaching pairs",
@@ -116,14 +121,10 @@ add("viscous", Choice(
 add("viscous", Choice(
     "PhysicalViscosity_MVT", "Morris, Fox & Zhu (1997); WCSPH-BI spec (MVT row)", "2 mu sum_j V_j v_ij x_ij.grad W_ij/(r^2+eps h^2)",
     params=(MU, SCALE), p_fields=("visc", "wall_visc"), values=_values(lambda q: 2.0 * q.m["dynamicViscosity"]),
-    build=_builder(make_mvt)))
+    build=_builder(make_mvt), nu=physical_nu))
 add("viscous", Choice(
     "PhysicalViscosity_MGVT", "Monaghan & Gingold (1983); WCSPH-BI spec (MGVT row)",
     "2 (n+2) mu sum_j psi_ij grad W_ij V_j", params=(MU, SCALE), p_fields=("visc", "wall_visc"),
-    values=_values(lambda q: 2.0 * (q.dim + 2) * q.m["dynamicViscosity"]), build=_builder(make_mgvt)))
+    values=_values(lambda q: 2.0 * (q.dim + 2) * q.m["dynamicViscosity"]), build=_builder(make_mgvt), nu=physical_nu))
 
 
-def kinematic_viscosity(case):
-    """nu of the case's physical viscous term (0 for none or artificial), for the time step."""
-    m = case["model"]
-    return m["dynamicViscosity"] / case["physics"]["rho0"] if m["ViscousTerm"].startswith("Physical") else 0.0

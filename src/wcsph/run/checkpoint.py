@@ -7,6 +7,7 @@ import numpy as np
 
 from ..errors import CaseError
 from ..io import vtk
+from ..version import __version__
 
 #: the layout of checkpoint.npz; a checkpoint of another version is refused
 CHECKPOINT_VERSION = 2
@@ -26,8 +27,6 @@ def save(path, state, integrator, open_boundaries, output_state=None):
     carried scalars (Verlet's step count, RK45's next step, the midpoint's primed guess), the
     open boundaries' and the output series' state. In a decomposed run one file of every
     rank's own particles, written by rank 0: it restarts on any number of ranks."""
-    from .. import __version__
-
     names = [k for k in state.fluid.per_particle() if k != "owned"]
     arrays = dict(zip(names, state.owned_host(*names)))
     dropped = state.dropped

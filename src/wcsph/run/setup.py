@@ -10,7 +10,7 @@ from ..errors import CaseError
 from ..grid import Grid
 from ..integrators import INTEGRATORS, SPEC_SCHEMES
 from ..kernels import SUPPORT, kernel_numpy, kernel_params
-from ..models import get_model
+from ..models.wcsph import WCSPH
 from ..motion import Bodies
 from ..open_boundary import OpenBoundaries
 from ..particles import ParticleSet
@@ -45,7 +45,7 @@ def build(case, backend, comm):
     # Becker & Teschner's stiffness kappa is c0^2 of p = kappa rho0/gamma ((rho/rho0)^gamma - 1)
     c0 = (math.sqrt(ph["kappa"]) if ph["kappa"] > 0 else ph["speed_of_sound"]) or default_sound_speed(case, fluid0)
     w_np, _ = kernel_numpy(m["kernel"], dim, h)
-    model = get_model(m["name"])(case, be)
+    model = WCSPH(case, be)
     mass = model.particle_mass(dp, h, ph["rho0"], w_np)
     integrator, cfl = _integrator(case, be, model, warnings)
     if h < dp * (1 - 1e-9):
