@@ -11,7 +11,7 @@ import re
 import tomllib
 from pathlib import Path
 
-from . import plugins
+from . import integrators, plugins
 from .errors import CaseError
 from .motion import MOTION
 from .open_boundary import OPEN_BOUNDARY
@@ -37,7 +37,6 @@ FLUID_BLOCK = {"min": ("vec", None, None), "max": ("vec", None, None), "file": (
 #: what every wall source (tank, obstacle, polygon) may add: a body name (its force and torque
 #: go to probes.csv) and a prescribed motion (``motion.MOTION``)
 BODY = {"name": ("str", "", None), "motion": (MOTION, None, None)}
-UNIT_OPEN = (lambda v: 0 <= v < 1, "must lie in [0, 1)")
 #: a 2D wall along a polyline; the fluid lies on the left of the direction of travel
 POLYGON = dict({"points": ("points", REQUIRED, None), "closed": ("bool", False, None)}, **BODY)
 #: walls from a file: a point ``file`` (boundary elements need the normals and sizes, wall
@@ -58,12 +57,7 @@ PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, one_of("pres
 SPEC_PARAMETERS = dict({
     "dp": "dp", "speedOfSound": "physics.speed_of_sound", "rho0": "physics.rho0", "dtInit": "time.dtInit",
     "cfl": "time.cfl", "dtMin": "time.dtMin", "gravity": "physics.gravity",
-    "midpointMaxInterations": "time.midpointMaxInterations",
-    "midpointResidualTolerance": "time.midpointResidualTolerance", "midpointRelaxCoef": "time.midpointRelaxCoef",
-    "midpointRelaxCoef_0": "time.midpointRelaxCoef_0",
-    "midpointResidualMinimalDecay": "time.midpointResidualMinimalDecay",
-    "midpointRelaxCoefIncrement": "time.midpointRelaxCoefIncrement",
-}, **plugins.spec_parameters())
+}, **integrators.spec_parameters(), **plugins.spec_parameters())
 
 SCHEMA = {
     "name": ("str", "case", SAFE_NAME),
@@ -94,17 +88,7 @@ SCHEMA = {
     "model": (plugins.model_schema(), {}, None),
     "time": ({
         "end": ("float", REQUIRED, POS),
-        "integrator": ("str", "", one_of("", "symplectic_euler", "verlet", "symplectic_verlet", "midpoint", "rk4",
-                                          "rk45", "MidpointScheme", "VerletScheme", "SymplecticVerletScheme",
-                                          "RK45")),
-        "verlet_euler_interval": ("int", 40, NONNEG),
-        "rk45_tolerance": ("float", 1e-6, POS),
-        "midpointMaxInterations": ("int", 50, POS),
-        "midpointResidualTolerance": ("float", 1e-7, POS),
-        "midpointRelaxCoef": ("float", 0.0, UNIT_OPEN),
-        "midpointRelaxCoef_0": ("float", 0.0, UNIT_OPEN),
-        "midpointResidualMinimalDecay": ("float", 0.2, POS),
-        "midpointRelaxCoefIncrement": ("float", 0.0, UNIT_OPEN),
+        **integrators.time_schema(),
         "cfl": ("float", 0.0, NONNEG),  # 0: the integrator's own default
         "force_cfl": ("float", 0.25, POS),
         "dt": ("float", 0.0, NONNEG),

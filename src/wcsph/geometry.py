@@ -27,7 +27,7 @@ import numpy as np
 from .errors import CaseError
 from .expressions import evaluate
 from .io.readers import GeometryError, face_elements, inside, read_points, read_surface, surface_distance
-from .kernels import SUPPORT
+from .kernels import SUPPORT, smoothing_length
 
 
 def lattice(lo, hi, dp):
@@ -38,12 +38,6 @@ def lattice(lo, hi, dp):
         axes.append(a + dp * (0.5 + np.arange(n)))
     mesh = np.meshgrid(*axes, indexing="ij")
     return np.stack([m.ravel() for m in mesh]) if axes else np.zeros((0, 0))
-
-
-def smoothing_length(case):
-    """h: ``model.h`` when given, else ``smoothing_ratio`` dp."""
-    m = case["model"]
-    return m["h"] if m["h"] > 0 else m["smoothing_ratio"] * case["dp"]
 
 
 def boundary_kind(case):
@@ -81,7 +75,7 @@ def wall_layers(case):
     if layers == 0 and case["model"]["wall_volume"] == "akinci":
         layers = 1  # the sampling Akinci's volume formula is made for
     elif layers == 0:
-        layers = math.ceil(SUPPORT * case["model"]["smoothing_ratio"] - 1e-9)
+        layers = math.ceil(SUPPORT * smoothing_length(case) / case["dp"] - 1e-9)
     return layers
 
 

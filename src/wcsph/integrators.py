@@ -22,6 +22,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from .errors import IntegrationError
+from .registry import NONNEG, POS, UNIT_OPEN, Param, one_of
 
 StateView = namedtuple("StateView", "x v dvdt rho drhodt p m x_n v_n rho_n dv_t drho_t k w")
 
@@ -269,6 +270,7 @@ _SAVED = (("x_n", "vector", True), ("v_n", "vector", True), ("rho_n", "scalar", 
 class Integrator:
     """A scheme as a sequence of derivative evaluations and per-particle maps."""
 
+    params = ()  # its parameters (``Param`` in the ``[time]`` table); the settings it reads
     fields = ()  # per-particle arrays the scheme keeps: (name, kind, scratch)
     order = None  # formal order of accuracy
     evaluations = 1  # derivative evaluations per step (a midpoint step: per iteration)
@@ -290,6 +292,11 @@ class Integrator:
         self.maps = [backend.make_reduce(f) if k in self.reduce_maps else backend.make_map(f)
                      for k, f in enumerate(fns)]
         self.stats = {}  # per-step figures for the log (iterations, residual, ...)
+
+    def setting(self, key):
+        """Its parameter ``key`` from the ``[time]`` settings, else the parameter's default."""
+        default = next(p.default for p in self.params if p.key == key)
+        return self.settings.get(key, default)
 
     def propose(self, dt):
         """The step the scheme wants, given the one the stability conditions allow."""
@@ -324,6 +331,8 @@ class SymplecticEuler(Integrator):
 
 
 class Verlet(Integrator):
+    params = (Param("verlet_euler_interval", 40, "steps between Verlet's explicit Euler steps (0: never)", kind="int",
+                    check=NONNEG, table="time"),)
     """Verlet with an explicit Euler step every ``verlet_euler_interval`` steps (f_ES, 40 by
     default; 0: only the first step). v and rho of the previous step travel with the
     particles, so they are not scratch."""
@@ -335,7 +344,7 @@ class Verlet(Integrator):
 
     def __init__(self, *a, **k):
         super().__init__(*a, **k)
-        self.every = int(self.settings.get("verlet_euler_interval", 40))
+        self.every = int(self.setting("verlet_euler_interval"))
         self.count = 0
 
     def step(self, state, P):
@@ -390,7 +399,7 @@ class RungeKutta(Integrator):
             row = list(self.A[s + 1]) if s + 1 < S else list(self.b)
             self.stage_w.append(self._weights(row, s))
         self.err_w = None
-        self.tol = float(self.settings.get("rk45_tolerance", 1e-6))
+        self.tol = float(self.setting("rk45_tolerance")) if self.b_hat is not None else 0.0
         self.adaptive = self.b_hat is not None and self.settings.get("adaptive", True)
         self.dt_next = None
         if self.b_hat is not None:
@@ -455,6 +464,7 @@ class RK4(RungeKutta):
 
 
 class RK45(RungeKutta):
+    params = (Param("rk45_tolerance", 1e-6, "largest scaled local error of an accepted step", check=POS, table="time"),)
     """Dormand & Prince (1980) RK5(4)7M: fifth-order solution, fourth-order embedded error
     estimate, seven evaluations a step (the first-same-as-last property is not used: the
     particles are re-sorted between steps)."""
@@ -506,6 +516,14 @@ class ImplicitMidpoint(Integrator):
 
     ROUNDOFF_FLOOR = 1000.0
     ROUNDOFF_STALL = 2
+    params = tuple(Param(k, d, doc, kind=kind, check=chk, table="time", spec=True) for k, d, doc, kind, chk in (
+        ("midpointMaxInterations", 50, "largest number of iterations per step", "int", POS),
+        ("midpointResidualTolerance", 1e-7, "relative energy residual that ends the iteration", "float", POS),
+        ("midpointRelaxCoef", 0.0, "relaxation weight of the previous iterate (1 - f)", "float", UNIT_OPEN),
+        ("midpointRelaxCoef_0", 0.0, "the same, on the first iteration", "float", UNIT_OPEN),
+        ("midpointResidualMinimalDecay", 0.2, "g_R: a residual ratio above it raises the relaxation", "float", POS),
+        ("midpointRelaxCoefIncrement", 0.0, "df of the relaxation's raise w -> df + (1 - df) w", "float",
+         UNIT_OPEN)))
     factory = staticmethod(make_midpoint)
     fields = _SAVED + (("dv_t", "vector", False), ("drho_t", "scalar", False))
     order = 2
@@ -515,13 +533,12 @@ class ImplicitMidpoint(Integrator):
 
     def __init__(self, *a, **k):
         super().__init__(*a, **k)
-        s = self.settings
-        self.max_iter = int(s.get("midpointMaxInterations", 50))
-        self.tol = float(s.get("midpointResidualTolerance", 1e-7))
-        self.relax0 = float(s.get("midpointRelaxCoef_0", 0.0))
-        self.relax = float(s.get("midpointRelaxCoef", 0.0))
-        self.decay = float(s.get("midpointResidualMinimalDecay", 0.2))
-        self.increment = float(s.get("midpointRelaxCoefIncrement", 0.0))
+        self.max_iter = int(self.setting("midpointMaxInterations"))
+        self.tol = float(self.setting("midpointResidualTolerance"))
+        self.relax0 = float(self.setting("midpointRelaxCoef_0"))
+        self.relax = float(self.setting("midpointRelaxCoef"))
+        self.decay = float(self.setting("midpointResidualMinimalDecay"))
+        self.increment = float(self.setting("midpointRelaxCoefIncrement"))
         self.primed = False
         self.floor = self.ROUNDOFF_FLOOR * float(np.finfo(self.dtype).eps)
         self._w = {}
@@ -579,3 +596,18 @@ INTEGRATORS = {"symplectic_euler": SymplecticEuler, "verlet": Verlet, "symplecti
 #: the spec's IntegrationScheme names
 SPEC_SCHEMES = {"MidpointScheme": "midpoint", "VerletScheme": "verlet",
                 "SymplecticVerletScheme": "symplectic_verlet", "RK45": "rk45"}
+
+
+def time_schema():
+    """The integrators' part of the ``[time]`` schema: ``integrator`` (a name of ours or the
+    spec's; empty: the model's default) and every scheme's parameters."""
+    schema = {"integrator": ("str", "", one_of("", *INTEGRATORS, *SPEC_SCHEMES))}
+    for cls in INTEGRATORS.values():
+        for p in cls.params:
+            schema[p.key] = (p.kind, p.default, p.check)
+    return schema
+
+
+def spec_parameters():
+    """The spec's runtime parameter names of the integrators and where they live in the case."""
+    return {p.key: p.dotted for cls in INTEGRATORS.values() for p in cls.params if p.spec}

@@ -125,3 +125,9 @@ SLOTS["kernel"].params = (
 )
 add("kernel", Choice("wendland", "Wendland (1995); Dehnen & Aly (2012)", "C2, W = sigma/h^d (1 - q/2)^4 (2q + 1)"))
 add("kernel", Choice("cubic_spline", "Monaghan & Lattanzio (1985)", "cubic B-spline"))
+
+
+def smoothing_length(case):
+    """h: ``model.h`` when given, else ``smoothing_ratio`` dp (the one place h is derived)."""
+    m = case["model"]
+    return m["h"] if m["h"] > 0 else m["smoothing_ratio"] * case["dp"]

@@ -29,6 +29,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from .expressions import evaluate
+from .kernels import SUPPORT, smoothing_length
 from .particles import ParticleSet
 from .registry import one_of
 
@@ -50,8 +51,7 @@ def check(src, case, fail):
     """Case errors of the ``open_boundary`` tables (``fail(src, key, message)``); returns
     warnings (a buffer shallower than the kernel support)."""
     dim, dp = case["dim"], case["dp"]
-    m = case["model"]
-    support = 2.0 * (m["h"] if m["h"] > 0 else m["smoothing_ratio"] * dp)
+    support = SUPPORT * smoothing_length(case)
     warnings = []
     for k, ob in enumerate(case["open_boundary"]):
         key = f"open_boundary[{k}]"

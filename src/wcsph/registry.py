@@ -15,6 +15,9 @@ A **choice** declares everything the rest of the code needs to know about it:
   parameter tuple of the compiled loops: a dict of P fields;
 * ``build``: the factory of its compiled pieces, called by the model with a ``Ctx``;
 * ``walls``: the wall models it works with; ``requires``: other slots' choices it needs;
+* ``implies``: what the model must provide for it, from ``IMPLIES`` (a rate of density, the
+  CSPM matrix, per-particle sound speed or p/rho^2, the wall particles' volume and density);
+  the model reads these flags, never a choice's name;
 * ``nu(q)``: the kinematic viscosity its term acts with, for the viscous time-step limit
   0.125 h^2 / nu (Morris et al. 1997); None when it limits nothing.
 
@@ -26,9 +29,19 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 REQUIRED = object()
+
+#: the flags a choice may declare in ``implies``
+IMPLIES = {
+    "continuity": "rho is a state advanced by the integrator from its rate drhodt",
+    "corrected": "the kernel-gradient correction matrix L of every particle",
+    "sound": "each particle's sound speed c, for a pair term",
+    "pr": "each particle's p / rho^2, for the m_j (p_i/rho_i^2 + p_j/rho_j^2) forms",
+    "wall_volume": "the boundary particles' volume V and density rho (not only Psi)",
+}
 POS = (lambda v: v > 0, "must be positive")
 NONNEG = (lambda v: v >= 0, "must be zero or positive")
 UNIT = (lambda v: 0 <= v <= 1, "must lie in [0, 1]")
+UNIT_OPEN = (lambda v: 0 <= v < 1, "must lie in [0, 1)")
 
 
 def one_of(*opts):
@@ -70,6 +83,7 @@ class Choice:
     requires: dict = field(default_factory=dict)  # slot -> tuple of allowed choice names
     check: Callable = None  # model table -> (key, message) of a bad combination of its values, or None
     nu: Callable = None  # q -> the kinematic viscosity its term acts with: the viscous time-step limit
+    implies: frozenset = frozenset()  # what the model provides for it (see IMPLIES)
     boundary: str = None  # wall models only: "particles" or "elements"
     consistent: bool = False  # wall models only: Shepard renormalization, wall pressure interpolated
     slot: str = ""
@@ -100,6 +114,8 @@ def slot(name, key, title, doc, defaults, params=()):
 def add(slot_name, choice):
     """Register ``choice`` in slot ``slot_name`` (at import of the term's family file)."""
     s = SLOTS[slot_name]
+    if not choice.implies <= IMPLIES.keys():
+        raise ValueError(f"{slot_name}: {choice.name!r} implies unknown {sorted(choice.implies - IMPLIES.keys())}")
     if choice.name in s.choices:
         raise ValueError(f"{slot_name}: {choice.name!r} registered twice")
     choice.slot = slot_name

@@ -141,16 +141,18 @@ class WCSPH:
         self._stepped = [c for c in sel.values() if c.step_values is not None]
         wall = sel["walls"]
         self.boundary, self.consistent = wall.boundary, wall.consistent
-        self.continuity = sel["density"].name == "continuity"
-        self.corrected = sel["correction"].name == "CSPM"
+        # what the selected choices declare they need (``Choice.implies``)
+        self.implies = implied = frozenset().union(*(c.implies for c in sel.values()))
+        self.continuity = "continuity" in implied
+        self.corrected = "corrected" in implied
         self.default_integrator = "symplectic_verlet" if self.continuity else "symplectic_euler"
         ctx = self.ctx = Ctx.create(dtype, dim, m["kernel"])
         self.q = q = plugins.Quantities(m, case["physics"], dim, case["dp"], 0.0, 0.0, 0.0, {}, None,
                                         boundary=self.boundary, conservative=not self.consistent,
                                         corrected=self.corrected, continuity=self.continuity)
         eos_p, q.eos_density, q.sound = sel["eos"].build(ctx, q)
-        self.needs_c = sel["pressure"].name == "Monaghan1992ArtificialViscosity"
-        s = _stores(ctx, eos_p, self.continuity, self.consistent, sel["pressure"].name.startswith("Monaghan"),
+        self.needs_c = "sound" in implied
+        s = _stores(ctx, eos_p, self.continuity, self.consistent, "pr" in implied,
                     self.corrected, q.sound if self.needs_c else None)
         from ..geometry import periodic_axes
 
@@ -238,8 +240,7 @@ class WCSPH:
         self._placeholders = {}
         self.fluid_view = globals()[_fluid_view_name(
             (self.continuity, self.consistent, self.corrected, bool(self.corrections), self.needs_c))]
-        psi_only = (not self.continuity and sel["pressure"].name == "Monaghan1992" and sel["viscous"].name == "None"
-                    and sel["shifting"].name == "None" and not self.corrected)
+        psi_only = "wall_volume" not in implied
         if self.boundary == "elements":
             self.wall_view = ElementView
         elif self.wall_pressure_pass is not None:

@@ -164,4 +164,5 @@ add("correction", Choice(
                   "(exact for linear fields)", kind="str", check=one_of("symmetric", "difference")),
             Param("cspm_threshold", 0.1, "(det M_i)^(1/d) below which L_i = I (near-singular M_i; "
                   "M_i = I in the bulk)", check=POS)),
-    p_fields=("cspm_min_det",), values=lambda q: {"cspm_min_det": q.m["cspm_threshold"] ** q.dim}, check=_check))
+    p_fields=("cspm_min_det",), values=lambda q: {"cspm_min_det": q.m["cspm_threshold"] ** q.dim}, check=_check,
+    implies=frozenset({"corrected", "wall_volume"})))

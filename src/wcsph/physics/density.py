@@ -100,4 +100,5 @@ add("density", Choice(
     build=lambda ctx, q: (make_summation(ctx), make_akinci_density(ctx))))
 add("density", Choice(
     "continuity", "WCSPH-BI spec, table of spatial discretizations",
-    "Drho/Dt = -rho <div v> (+ the diffusive term), rho advanced by the integrator", build=_continuity))
+    "Drho/Dt = -rho <div v> (+ the diffusive term), rho advanced by the integrator", build=_continuity,
+    implies=frozenset({"continuity", "wall_volume"})))

@@ -181,10 +181,10 @@ def _build_monaghan_av(ctx, q):
 
 add("pressure", Choice(
     "BISymmetric", "WCSPH-BI spec: <grad p>^{Omega,sym} and its boundary forms",
-    "f_i -= sum_j (p_i + p_j) grad_i W_ij V_j", build=_build_bi))
+    "f_i -= sum_j (p_i + p_j) grad_i W_ij V_j", build=_build_bi, implies=frozenset({"wall_volume"})))
 add("pressure", Choice(
     "Monaghan1992", "Monaghan (1992); Becker & Teschner (2007) eq. 6",
-    "a_i -= sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) grad_i W_ij", build=_build_monaghan))
+    "a_i -= sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) grad_i W_ij", build=_build_monaghan, implies=frozenset({"pr"})))
 add("pressure", Choice(
     "Monaghan1992ArtificialViscosity", "third spec: momentum equation with artificial viscosity (Monaghan 1992)",
     "a_i -= sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2 + Pi_ij) grad_i W_ij, Pi_ij with alpha and beta",
@@ -193,4 +193,4 @@ add("pressure", Choice(
                   check=NONNEG)),
     p_fields=("av_alpha_h", "av_beta_h2"),
     values=lambda q: {"av_alpha_h": q.m["av_alpha"] * q.h, "av_beta_h2": q.m["av_beta"] * q.h * q.h},
-    build=_build_monaghan_av))
+    build=_build_monaghan_av, implies=frozenset({"pr", "sound", "wall_volume"})))

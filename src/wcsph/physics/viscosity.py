@@ -90,6 +90,8 @@ def make_boundary_viscosity(ctx, artificial):
 
 
 MU = Param("dynamicViscosity", 0.0, "dynamic viscosity mu", unit="Pa s", check=NONNEG, spec=True)
+#: every viscous term reads the boundary particles' volume and density
+WALL_VOLUME = frozenset({"wall_volume"})
 SCALE = Param("scaleBVTCoef", 1.0, "scale of the wall viscous term", check=NONNEG, spec=True)
 
 
@@ -117,14 +119,16 @@ add("viscous", Choice(
     "ArtificialViscosity", "WCSPH-BI spec; Monaghan (1992)", "alpha h c0 sum_j m_j psi_ij / rho_ij grad W_ij, approaching pairs",
     params=(Param("alpha", 0.02, "alpha of the artificial viscosity alpha h c0", check=NONNEG, spec=True), SCALE),
     p_fields=("visc", "wall_visc"), values=_values(lambda q: q.m["alpha"] * q.h * q.c0),
-    build=_builder(make_artificial_viscosity, artificial=True)))
+    build=_builder(make_artificial_viscosity, artificial=True),
+    implies=WALL_VOLUME))
 add("viscous", Choice(
     "PhysicalViscosity_MVT", "Morris, Fox & Zhu (1997); WCSPH-BI spec (MVT row)", "2 mu sum_j V_j v_ij x_ij.grad W_ij/(r^2+eps h^2)",
     params=(MU, SCALE), p_fields=("visc", "wall_visc"), values=_values(lambda q: 2.0 * q.m["dynamicViscosity"]),
-    build=_builder(make_mvt), nu=physical_nu))
+    build=_builder(make_mvt), nu=physical_nu, implies=WALL_VOLUME))
 add("viscous", Choice(
     "PhysicalViscosity_MGVT", "Monaghan & Gingold (1983); WCSPH-BI spec (MGVT row)",
     "2 (n+2) mu sum_j psi_ij grad W_ij V_j", params=(MU, SCALE), p_fields=("visc", "wall_visc"),
-    values=_values(lambda q: 2.0 * (q.dim + 2) * q.m["dynamicViscosity"]), build=_builder(make_mgvt), nu=physical_nu))
+    values=_values(lambda q: 2.0 * (q.dim + 2) * q.m["dynamicViscosity"]), build=_builder(make_mgvt), nu=physical_nu,
+    implies=WALL_VOLUME))
 
 

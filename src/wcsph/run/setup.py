@@ -9,7 +9,7 @@ from .. import geometry, parallel
 from ..errors import CaseError
 from ..grid import Grid
 from ..integrators import INTEGRATORS, SPEC_SCHEMES
-from ..kernels import SUPPORT, kernel_numpy, kernel_params
+from ..kernels import SUPPORT, kernel_numpy, kernel_params, smoothing_length
 from ..models.wcsph import WCSPH
 from ..motion import Bodies
 from ..open_boundary import OpenBoundaries
@@ -32,7 +32,7 @@ def build(case, backend, comm):
     ``comm`` (an MPI communicator, or None)."""
     dim, dtype, dp = case["dim"], np.dtype(case["precision"]).type, case["dp"]
     be, m = backend, case["model"]
-    h = geometry.smoothing_length(case)
+    h = smoothing_length(case)
     geometry.check_size(case)
     fluid0, wall0, lo, hi = geometry.build(case)
     opened = None
