@@ -43,12 +43,6 @@ import numpy as np
 #: Intel MPI's hydra and Slurm's PMI-2 (PMI_*), Open MPI (OMPI_*), PMIx (srun --mpi=pmix)
 _LAUNCHED = ("PMI_RANK", "PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "PMIX_RANK")
 
-#: the fields an evaluation reads of a neighbour that are the state (the rest it computes)
-STATE = ("x", "v", "rho")
-#: the fields the corrections, probes and body loads read of a neighbour after a step
-SETTLED = ("x", "v", "rho", "p", "pr", "vol", "c")
-
-
 class ParallelError(RuntimeError):
     """MPI was asked for and cannot be used (mpi4py missing)."""
 

@@ -152,6 +152,11 @@ class WCSPH:
                                         corrected=self.corrected, continuity=self.continuity)
         eos_p, q.eos_density, q.sound = sel["eos"].build(ctx, q)
         self.needs_c = "sound" in implied
+        # the fields of a neighbour a decomposed run refreshes on its ghosts (``parallel.Halo``):
+        # the state before an evaluation; with what the EOS store writes from it (p, V and, for
+        # the choices that read them, p/rho^2 and c) after the density pass and after a step
+        eos = ("p", "vol") + (("pr",) if "pr" in implied else ()) + (("c",) if self.needs_c else ())
+        self.exchanged = {"state": ("x", "v", "rho"), "density": ("rho",) + eos, "settled": ("x", "v", "rho") + eos}
         s = _stores(ctx, eos_p, self.continuity, self.consistent, "pr" in implied,
                     self.corrected, q.sound if self.needs_c else None)
         from ..geometry import periodic_axes
@@ -360,7 +365,7 @@ class WCSPH:
         else:
             self.density_pass(f, f, w, P, G)
             if halo is not None:
-                halo.fluid(("rho", "p", "pr", "vol", "c"))
+                halo.fluid(self.exchanged["density"])
         if self.noslip_pass is not None and walls.n:  # the walls' terms read the no-slip velocity
             self.noslip_pass(self.view(walls, NoSlipWallView), f, f, P, G)
             if halo is not None:

@@ -1,7 +1,6 @@
 """The fluid's force and torque on each named body, for probes.csv."""
 import numpy as np
 
-from .. import parallel
 from ..particles import ParticleSet
 
 
@@ -69,7 +68,7 @@ def _element_loads(state, bodies, named):
 def _particle_loads(state, bodies, named):
     be, fl, par = state.backend, state.fluid, state.par
     if par is not None:
-        par.update(fl, parallel.STATE)
+        par.update(fl, state.model.exchanged["state"])
     saved = {k: be.to_host(fl[k]).copy() for k in fl.per_particle() if k in fl.scratch or k == "rho"}
     state.model.derivatives(fl, state.walls, state.P, state.G, state.halo)
     mine = be.to_host(fl["owned"]) != 0 if par is not None else slice(None)

@@ -12,7 +12,6 @@ import math
 
 import numpy as np
 
-from .. import parallel
 from ..integrators import StateView
 
 
@@ -70,7 +69,7 @@ class State:
         decomposed run first refreshes its ghosts' state from their owners."""
         self.evaluations += 1
         if self.par is not None:
-            self.par.update(self.fluid, parallel.STATE)
+            self.par.update(self.fluid, self.model.exchanged["state"])
         self.model.derivatives(self.fluid, self.walls, P, self.G, self.halo)
 
     def reduce(self, fn, view, P):
@@ -88,7 +87,7 @@ class State:
         body loads read of a neighbour after a step."""
         self.model.refresh(self.fluid, self.P)
         if self.par is not None:
-            self.par.update(self.fluid, parallel.SETTLED)
+            self.par.update(self.fluid, self.model.exchanged["settled"])
 
     # ------------------------------------------------------------------ host reads
     def host(self, pset, *names):
