@@ -1,0 +1,116 @@
+"""Pair terms called directly, on two particles: the jitable functions of ``physics/`` are
+plain Python functions too, so each can be checked against its formula without a loop, a
+grid or a case run. (The end-to-end tests check the same terms inside the passes.)"""
+from collections import namedtuple
+
+import numpy as np
+import pytest
+
+from wcsph import Simulation
+from wcsph.config import load
+from wcsph.kernels import kernel_numpy
+from wcsph.physics import Ctx
+from wcsph.physics.density import make_summation
+from wcsph.physics.diffusion import make_molteni
+from wcsph.physics.pressure import make_bi_pressure, make_monaghan_pi, make_symmetric_pressure
+from wcsph.physics.viscosity import make_artificial_viscosity, make_mgvt, make_mvt
+
+Pair = namedtuple("Pair", "x v rho p pr vol m c")
+ZERO = (0.0,) * 9
+H = 0.02
+
+
+@pytest.fixture(scope="module")
+def P():
+    """The parameters of a 2D WCSPH-BI case in float64, h = 0.02 m, with viscosity, diffusion
+    and Monaghan's Pi set (the values the terms read)."""
+    case = load("dam_break_2d_bi", [("dp", 0.01), ("precision", "float64"), ("model.ViscousTerm", "PhysicalViscosity_MVT"),
+                                    ("model.dynamicViscosity", 1e-3), ("time.max_steps", 1)])
+    return Simulation(case).P._replace(av_alpha_h=0.01 * H, av_beta_h2=0.0)
+
+
+@pytest.fixture(scope="module")
+def ctx():
+    return Ctx.create(np.float64, 2, "wendland")
+
+
+def _pair(rng):
+    """Two particles 0.8 h to 1.6 h apart, random velocities, densities near 1000, pressures."""
+    x0 = np.zeros(2)
+    d = rng.uniform(0.8, 1.6) * H
+    a = rng.uniform(0, 2 * np.pi)
+    x = np.stack([x0, x0 + d * np.array([np.cos(a), np.sin(a)])], axis=1)
+    v = rng.normal(size=(2, 2))
+    rho = rng.uniform(990, 1010, size=2)
+    p = rng.uniform(0, 3000, size=2)
+    m = np.full(2, 0.1)
+    return Pair(np.vstack([x, np.zeros((1, 2))]), np.vstack([v, np.zeros((1, 2))]), rho, p, p / rho ** 2, m / rho, m,
+                np.full(2, 17.0))
+
+
+def _call(term, pair, i, j, P):
+    d = pair.x[:, i] - pair.x[:, j]
+    return term(i, j, d[0], d[1], d[2], float(np.linalg.norm(d)), pair, pair, P, ZERO)
+
+
+def _momentum(acc, pair, i):
+    """m_i a_i from the accumulator: the force slot is rho_i a_i (times V_i), the acceleration slot a_i."""
+    return pair.vol[i] * np.array(acc[2:5]) + pair.m[i] * np.array(acc[5:8])
+
+
+@pytest.mark.parametrize("make", [make_bi_pressure, make_symmetric_pressure, make_mvt, make_mgvt,
+                                  make_artificial_viscosity, make_monaghan_pi])
+def test_a_fluid_pair_exchanges_momentum_equal_and_opposite(make, P, ctx):
+    term = make(ctx)
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        pair = _pair(rng)
+        total = _momentum(_call(term, pair, 0, 1, P), pair, 0) + _momentum(_call(term, pair, 1, 0, P), pair, 1)
+        scale = np.abs(_momentum(_call(term, pair, 0, 1, P), pair, 0)).max() + 1e-300
+        assert np.abs(total).max() <= 1e-12 * scale
+
+
+def test_bi_pressure_is_its_formula(P, ctx):
+    """f_i = -(p_i + p_j) grad_i W_ij V_j, grad_i W = (dW/dr / r) x_ij (Wendland C2, 2D)."""
+    _, grad = kernel_numpy("wendland", 2, H)
+    pair = _pair(np.random.default_rng(1))
+    d = pair.x[:2, 0] - pair.x[:2, 1]
+    r = np.linalg.norm(d)
+    expected = -(pair.p[0] + pair.p[1]) * grad(r) * pair.vol[1] * d
+    got = np.array(_call(make_bi_pressure(ctx), pair, 0, 1, P)[2:4])
+    assert got == pytest.approx(expected, rel=1e-12)
+
+
+def test_summation_density_is_m_w(P, ctx):
+    w, _ = kernel_numpy("wendland", 2, H)
+    pair = _pair(np.random.default_rng(2))
+    r = np.linalg.norm(pair.x[:, 0] - pair.x[:, 1])
+    d = pair.x[:, 0] - pair.x[:, 1]
+    assert make_summation(ctx)(0, 1, d[0], d[1], d[2], r, pair, pair, P, 0.0) == pytest.approx(pair.m[1] * w(r), rel=1e-12)
+
+
+def test_viscous_terms_vanish_without_relative_motion(P, ctx):
+    pair = _pair(np.random.default_rng(3))
+    pair = pair._replace(v=np.repeat(pair.v[:, :1], 2, axis=1))  # a rigid translation
+    for make in (make_mvt, make_mgvt, make_artificial_viscosity, make_monaghan_pi):
+        assert np.abs(_call(make(ctx), pair, 0, 1, P)[2:8]).max() == 0.0, make.__name__
+
+
+def test_artificial_viscosity_acts_on_approaching_pairs_only(P, ctx):
+    pair = _pair(np.random.default_rng(4))
+    d = pair.x[:, 1] - pair.x[:, 0]
+    for sign, acting in ((+1.0, True), (-1.0, False)):  # particle 0 moving toward 1, then away
+        v = np.zeros((3, 2))
+        v[:, 0] = sign * d / np.linalg.norm(d)
+        acc = _call(make_artificial_viscosity(ctx), pair._replace(v=v), 0, 1, P)
+        assert (np.abs(acc[2:5]).max() > 0) == acting
+
+
+def test_molteni_diffusion_moves_density_down_its_gradient(P, ctx):
+    """delta h c0 psi_ij . grad W V_j, psi = 2 (rho_j - rho_i) x_ji / r^2: particle i gains
+    density from a denser neighbour and loses it to a lighter one."""
+    pair = _pair(np.random.default_rng(5))
+    term = make_molteni(ctx)
+    for rho, sign in (((1000.0, 1010.0), 1), ((1010.0, 1000.0), -1)):
+        acc = _call(term, pair._replace(rho=np.array(rho)), 0, 1, P)
+        assert np.sign(acc[1]) == sign
