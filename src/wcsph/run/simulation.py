@@ -74,9 +74,6 @@ class Simulation:
         """The next step's size (``run.timestep``)."""
         return self.time_step_rule(self.state)
 
-    def stable_time_step(self):
-        return self.time_step_rule.stable(self.state)
-
     def step(self, dt):
         """One time step of at most ``dt`` through the stages; returns the step taken (an
         adaptive integrator may take less)."""
