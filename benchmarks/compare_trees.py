@@ -43,8 +43,11 @@ def main():
     ap.add_argument("new")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--seconds", type=float, default=4.0)
+    ap.add_argument("--only", default="", help="only the cases whose name contains this")
     a = ap.parse_args()
     for case, n in CASES:
+        if a.only not in case:
+            continue
         times = {"old": [], "new": []}
         for _ in range(a.rounds):
             for tag in ("old", "new"):

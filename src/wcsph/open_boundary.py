@@ -50,7 +50,7 @@ ExtrapFluid = namedtuple("ExtrapFluid", "x v rho m kind cell start")
 def check(src, case, fail):
     """Case errors of the ``open_boundary`` tables (``fail(src, key, message)``); returns
     warnings (a buffer shallower than the kernel support)."""
-    dim, dp = case["dim"], case["dp"]
+    dp = case["dp"]
     support = SUPPORT * smoothing_length(case)
     warnings = []
     for k, ob in enumerate(case["open_boundary"]):

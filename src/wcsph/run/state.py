@@ -2,7 +2,7 @@
 
 ``State`` holds the particle sets, the cell grid, the model and its parameters ``P``, the
 decomposition over ranks (``par``, None in a plain run), the time and the step's scalars
-(``dt``, ``vmax``, ``amax``, the counts). Every stage of a step (``run.stages``), the
+(``dt``, ``vmax``, ``amax``, the counts). Every stage of a step (``run.simulation`` lists them), the
 integrators, the open boundaries, the probes and the output take a State; none of them
 reaches into the driver. The scalars a stage produces for the next one (``vmax``, ``amax``,
 ``bad``, ``n_owned``) are fields here, so that a backend that keeps the state on a device
