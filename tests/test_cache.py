@@ -43,7 +43,9 @@ def _run(name, out, cache_dir):
 CASES = ["dam_break_2d", "couette_2d", "poiseuille_open_2d"]
 
 
-@pytest.fixture(scope="module")
+# session scope: a worker of a parallel run may interleave other modules' tests with these,
+# and a module-scoped fixture would then be torn down and filled again (90 s each time)
+@pytest.fixture(scope="session")
 def cache_dir(tmp_path_factory):
     """A fresh cache, filled by one run of each case of ``CASES`` (compiling all their loops)."""
     path = tmp_path_factory.mktemp("numba_cache")
