@@ -1,0 +1,74 @@
+"""The run's stages on their own, without a case: each takes a state and nothing else, so a
+namespace with the fields it reads is enough to test it."""
+from types import SimpleNamespace
+
+import pytest
+
+from wcsph.errors import SimulationError
+from wcsph.run.check import Check
+from wcsph.run.loop import Every
+from wcsph.run.timestep import TimeStep
+
+TIME = {"dt": 0.0, "dtInit": 0.0, "dtMin": 0.0, "force_cfl": 0.25}
+
+
+class _Integrator:
+    def propose(self, dt):
+        return dt
+
+
+def _state(**kw):
+    s = dict(t=1.5, steps=7, h=0.02, c0=20.0, vmax=2.0, amax=9.81, n_owned=100, bad=0)
+    s.update(kw)
+    return SimpleNamespace(**s)
+
+
+def test_the_step_is_the_least_of_the_three_limits():
+    s = _state()
+    cfl = TimeStep(TIME, 0.2, _Integrator(), nu=0.0)(s)
+    assert cfl == pytest.approx(0.2 * 0.02 / (20.0 + 2.0))
+    force = TimeStep(TIME, 0.2, _Integrator(), nu=0.0)(_state(amax=1e5))
+    assert force == pytest.approx(0.25 * (0.02 / 1e5) ** 0.5)
+    viscous = TimeStep(TIME, 0.2, _Integrator(), nu=1.0)(s)
+    assert viscous == pytest.approx(0.125 * 0.02 ** 2 / 1.0)
+
+
+def test_a_constant_or_first_step_is_taken_as_given_and_dt_min_stops_the_run():
+    assert TimeStep(dict(TIME, dt=1e-4), 0.2, _Integrator(), 0.0)(_state()) == 1e-4
+    assert TimeStep(dict(TIME, dtInit=1e-6), 0.2, _Integrator(), 0.0)(_state(steps=0)) == 1e-6
+    with pytest.raises(SimulationError, match="dtMin"):
+        TimeStep(dict(TIME, dtMin=1.0), 0.2, _Integrator(), 0.0)(_state())
+
+
+@pytest.mark.parametrize("fields, words", [({"n_owned": 0}, "left the domain"), ({"bad": 3}, "3 fluid particles"),
+                                           ({"vmax": 25.0}, "runaway velocity")])
+def test_the_check_names_the_step_it_stops_at(fields, words):
+    with pytest.raises(SimulationError, match=words) as e:
+        Check.verify(_state(**fields))
+    assert "step 7" in str(e.value) and "t = 1.5 s" in str(e.value)
+
+
+def test_a_sound_state_passes_the_check():
+    Check.verify(_state())
+
+
+def test_a_callback_falls_due_each_interval_and_never_at_zero():
+    calls = []
+    every = Every(0.1, 0.0, lambda: calls.append(1))
+    for t in (0.0, 0.05, 0.1, 0.1999999999, 0.25, 0.3):  # within the slack of 0.2 counts as 0.2
+        if every.due(t, slack=1e-9):
+            every()
+    assert len(calls) == 4 and every.next == pytest.approx(0.4)
+    assert not Every(0.0, 0.0, lambda: None).due(5.0, 1e-9)
+
+
+def test_the_stages_of_a_case_follow_from_it():
+    """A case without open boundaries has no inflow stages; one with them has both, around the
+    integrator; the walls move after the time advanced and the check comes last."""
+    from wcsph import Simulation
+    from wcsph.config import load
+
+    names = [type(s).__name__ for s in Simulation(load("couette_2d", [("time.max_steps", 1)])).stages]
+    assert "InflowBefore" not in names and names[-3:] == ["Advance", "MoveWalls", "Check"]
+    opened = [type(s).__name__ for s in Simulation(load("poiseuille_open_2d", [("time.max_steps", 1)])).stages]
+    assert opened.index("InflowBefore") < opened.index("Integrate") < opened.index("InflowAfter")
