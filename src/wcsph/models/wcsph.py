@@ -44,19 +44,30 @@ from ..physics.wall_corrections import make_wall_corrections
 # fields, each created at import under the name it is bound to (Numba's cache finds the
 # types of its compiled loops by name).
 _FLUID = "x v dvdt rho p pr vol m"
-_OPTIONAL = (("drhodt", "continuity"), ("shepard", "consistent"), ("L", "corrected"), ("corr rho_corr", "corrections"),
-             ("c", "sound"))
+#: the fluid's fields beyond x, v, m, id: name -> (kind, the model flag that adds it or None for
+#: every model). One table for what the set holds, what the views see and the stand-ins a
+#: view gets for a field its case lacks; every one is scratch (written by each evaluation
+#: before it is read) except rho of a continuity model. "matrix" is a (dim * dim,) field.
+FLUID_FIELDS = {
+    "dvdt": ("vector", None), "rho": ("scalar", None), "p": ("scalar", None), "pr": ("scalar", None),
+    "vol": ("scalar", None), "drhodt": ("scalar", "continuity"), "shepard": ("scalar", "consistent"),
+    "L": ("matrix", "corrected"), "corr": ("vector", "corrections"), "rho_corr": ("scalar", "corrections"),
+    "c": ("scalar", "sound"),
+}
+#: the flags that add optional fields, in the order the view classes are named by
+_FLAGS = ("continuity", "consistent", "corrected", "corrections", "sound")
 
 
 def _fluid_view_name(flags):
-    return "FluidView" + "".join("_" + opt for (_, opt), on in zip(_OPTIONAL, flags) if on)
+    return "FluidView" + "".join("_" + opt for opt, on in zip(_FLAGS, flags) if on)
 
 
-for _flags in __import__("itertools").product((False, True), repeat=len(_OPTIONAL)):
+for _flags in __import__("itertools").product((False, True), repeat=len(_FLAGS)):
     _name = _fluid_view_name(_flags)
-    _fields = " ".join([_FLUID] + [f for (f, _), on in zip(_OPTIONAL, _flags) if on] + ["cell start"])
+    _on = {f for f, on in zip(_FLAGS, _flags) if on}
+    _fields = " ".join([_FLUID] + [k for k, (_, flag) in FLUID_FIELDS.items() if flag in _on] + ["cell start"])
     globals()[_name] = namedtuple(_name, _fields)
-FluidView = globals()[_fluid_view_name((False,) * len(_OPTIONAL))]
+FluidView = globals()[_fluid_view_name((False,) * len(_FLAGS))]
 ElementView = namedtuple("ElementView", "x v n elementSize p rho cell start")
 #: boundary elements as the load pass writes them
 LoadView = namedtuple("LoadView", "x v n elementSize load cell start")
@@ -67,9 +78,11 @@ ParticleWallViewFull = namedtuple("ParticleWallViewFull", "x v psi vol rho cell 
 ParticleWallViewPressure = namedtuple("ParticleWallViewPressure", "x v psi vol rho p pr cell start")
 #: boundary particles as the no-slip velocity pass writes them
 NoSlipWallView = namedtuple("NoSlipWallView", "x v v_ext cell start")
-#: fields a view may lack in a case, by number of array dimensions (a stand-in is passed)
-_PLACEHOLDER_NDIM = {"drhodt": 1, "shepard": 1, "L": 2, "corr": 2, "rho_corr": 1, "n": 2, "elementSize": 1,
-                     "psi": 1, "vol": 1, "p": 1, "rho": 1, "pr": 1}
+#: the kinds of the wall sets' fields a view may lack in a case (a stand-in is passed)
+WALL_FIELDS = {"n": "vector", "elementSize": "scalar", "psi": "scalar", "vol": "scalar", "p": "scalar",
+               "rho": "scalar", "pr": "scalar"}
+#: array dimensions of a field of each kind ((N,) scalars; (dim, N) vectors and matrices)
+_NDIM = {"scalar": 1, "vector": 2, "matrix": 2}
 
 
 def _stores(ctx, eos, continuity, consistent, needs_pr, corrected, sound):
@@ -243,8 +256,8 @@ class WCSPH:
                                          m["enableShifting"])
             self.wall_correction = mk(dim, dtype, make_wall_init(ctx), term, make_wall_store(ctx))
         self._placeholders = {}
-        self.fluid_view = globals()[_fluid_view_name(
-            (self.continuity, self.consistent, self.corrected, bool(self.corrections), self.needs_c))]
+        self._flags = (self.continuity, self.consistent, self.corrected, bool(self.corrections), self.needs_c)
+        self.fluid_view = globals()[_fluid_view_name(self._flags)]
         psi_only = "wall_volume" not in implied
         if self.boundary == "elements":
             self.wall_view = ElementView
@@ -255,22 +268,12 @@ class WCSPH:
 
     # ------------------------------------------------------------------ set-up
     def fluid_fields(self):
-        """(name, kind, scratch): scratch when every evaluation writes the field before
-        reading it (sorting skips those)."""
-        f = [("dvdt", "vector", True), ("rho", "scalar", not self.continuity), ("p", "scalar", True),
-             ("pr", "scalar", True), ("vol", "scalar", True)]
-        if self.continuity:
-            f.append(("drhodt", "scalar", True))
-        if self.consistent:
-            f.append(("shepard", "scalar", True))
-        if self.corrected:
-            f.append(("L", (self.dim * self.dim,), True))
-        if self.needs_c:
-            f.append(("c", "scalar", True))
-        if self.corrections:
-            f.append(("corr", "vector", True))
-            f.append(("rho_corr", "scalar", True))
-        return f
+        """(name, kind, scratch) of the fields this selection needs (``FLUID_FIELDS``):
+        scratch when every evaluation writes the field before reading it (sorting skips those)."""
+        on = {f for f, v in zip(_FLAGS, self._flags) if v}
+        kinds = {"matrix": (self.dim * self.dim,)}
+        return [(name, kinds.get(kind, kind), not (name == "rho" and self.continuity))
+                for name, (kind, flag) in FLUID_FIELDS.items() if flag is None or flag in on]
 
     def wall_fields(self):
         if self.boundary == "particles":
@@ -348,7 +351,8 @@ class WCSPH:
 
     def _placeholder(self, name):
         if name not in self._placeholders:
-            shape = (1,) * _PLACEHOLDER_NDIM[name]
+            kind = FLUID_FIELDS[name][0] if name in FLUID_FIELDS else WALL_FIELDS[name]
+            shape = (1,) * _NDIM[kind]
             self._placeholders[name] = self.backend.to_device(np.zeros(shape, dtype=self.dtype))
         return self._placeholders[name]
 
