@@ -127,7 +127,7 @@ def test_dpc_keeps_a_compressed_pair_apart(collision):
         v[0] += np.where(left, a, -a) * dt
         x += v * dt
         sim.P = sim.params_for(dt)
-        sim.model.correct(sim.fluid, sim.walls, sim.P, sim.G, step)
+        sim.model.after_step(sim.fluid, sim.walls, sim.P, sim.G, step)
         x, v = sim.host(sim.fluid, "x", "v")
         r = abs(x[0, 1] - x[0, 0])
         rmin = min(rmin, r if left[0] != left[1] else 0.0)

@@ -27,7 +27,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from .. import plugins
-from ..physics import Correction, Ctx, compose
+from ..physics import AfterStepPass, Ctx, compose
 from ..physics.correction import (make_cspm_boundary, make_cspm_matrix, make_cspm_store, make_shepard_density,
                                  make_shepard_density_store)
 from ..physics.density import make_akinci_volume
@@ -51,11 +51,11 @@ _FLUID = "x v dvdt rho p pr vol m"
 FLUID_FIELDS = {
     "dvdt": ("vector", None), "rho": ("scalar", None), "p": ("scalar", None), "pr": ("scalar", None),
     "vol": ("scalar", None), "drhodt": ("scalar", "continuity"), "shepard": ("scalar", "consistent"),
-    "L": ("matrix", "corrected"), "corr": ("vector", "corrections"), "rho_corr": ("scalar", "corrections"),
+    "L": ("matrix", "corrected"), "corr": ("vector", "after_step"), "rho_corr": ("scalar", "after_step"),
     "c": ("scalar", "sound"),
 }
 #: the flags that add optional fields, in the order the view classes are named by
-_FLAGS = ("continuity", "consistent", "corrected", "corrections", "sound")
+_FLAGS = ("continuity", "consistent", "corrected", "after_step", "sound")
 
 
 def _fluid_view_name(flags):
@@ -218,7 +218,7 @@ class WCSPH:
             if c.build is None or (slot == "density" and not self.continuity):
                 continue
             t = c.build(ctx, q)
-            if isinstance(t, Correction):
+            if isinstance(t, AfterStepPass):
                 continue
             fluid += t.fluid
             walls += t.wall
@@ -233,30 +233,30 @@ class WCSPH:
                               pair2=compose(*walls) if walls else None,
                               branchless=dim == 2 and self.boundary == "elements")
 
-        # corrections after each step, in this order
-        self.corrections = []
+        # the passes after each step, in this order
+        self.after_step_passes = []
         for slot in ("collision", "xsph", "shifting"):
             c = sel[slot]
             if c.build is not None:
                 t = c.build(ctx, q)
-                if isinstance(t, Correction):
-                    self.corrections.append(t)
+                if isinstance(t, AfterStepPass):
+                    self.after_step_passes.append(t)
         if self.corrected and self.continuity and m["cspm_density_interval"] > 0:
             init_d, store_d = make_shepard_density_store(ctx)
             term = make_shepard_density(ctx)
-            self.corrections.append(Correction(init_d, term, store_d, s["apply_density"],
+            self.after_step_passes.append(AfterStepPass(init_d, term, store_d, s["apply_density"],
                                                wall=term if self.boundary == "particles" else None,
                                                every=m["cspm_density_interval"]))
-        self.correction_passes = [
+        self.after_step_runs = [
             (c, mk(dim, dtype, c.init, c.fluid, c.store, pair2=c.wall), backend.make_map(c.apply))
-            for c in self.corrections]
+            for c in self.after_step_passes]
         self.wall_correction = None
         if self.boundary == "elements" and (m["enableElasticBounce"] or m["enableShifting"]):
             term = make_wall_corrections(ctx, m["enableElasticBounce"], m["elasticBounce"] == "epsilon",
                                          m["enableShifting"])
             self.wall_correction = mk(dim, dtype, make_wall_init(ctx), term, make_wall_store(ctx))
         self._placeholders = {}
-        self._flags = (self.continuity, self.consistent, self.corrected, bool(self.corrections), self.needs_c)
+        self._flags = (self.continuity, self.consistent, self.corrected, bool(self.after_step_passes), self.needs_c)
         self.fluid_view = globals()[_fluid_view_name(self._flags)]
         psi_only = "wall_volume" not in implied
         if self.boundary == "elements":
@@ -404,17 +404,17 @@ class WCSPH:
         if self.continuity:
             self.initialize_map(self.view(fluid, self.fluid_view), P)
 
-    def correct(self, fluid, walls, P, G, step=1, settle=None):
-        """The corrections after time step number ``step``: DPC, XSPH on the positions,
-        shifting, CSPM density re-initialisation (every N steps), then the elastic bounce and
-        NBVC-PST of boundary elements. ``settle()``, when given, replaces the refresh of p and
-        V before each correction (a decomposed run also refreshes its ghosts there)."""
-        due = self.correction_passes and [t for t in self.correction_passes if step % t[0].every == 0]
+    def after_step(self, fluid, walls, P, G, step=1, settle=None):
+        """The passes after time step number ``step``: DPC, XSPH on the positions, shifting,
+        CSPM density re-initialisation (every N steps), then the elastic bounce and NBVC-PST
+        of boundary elements (``wall_corrections``). ``settle()``, when given, replaces the
+        refresh of p and V before each pass (a decomposed run also refreshes its ghosts there)."""
+        due = self.after_step_runs and [t for t in self.after_step_runs if step % t[0].every == 0]
         if due:
             w = self.view(walls, self.wall_view)
             for c, run, apply in due:
                 if settle is None:
-                    self.refresh(fluid, P)  # p and V of the state the correction starts from
+                    self.refresh(fluid, P)  # p and V of the state the pass starts from
                 else:
                     settle()
                 f = self.view(fluid, self.fluid_view)

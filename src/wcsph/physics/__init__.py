@@ -48,8 +48,8 @@ class Ctx:
         return cls(dtype, dim, *make_kernel(kernel, dtype))
 
 
-class Correction:
-    """A correction made after each time step (or every ``every`` steps): a pass over fluid
+class AfterStepPass:
+    """A pass made after each time step (or every ``every`` steps): a pass over fluid
     neighbours (``fluid``) and wall neighbours (``wall``, or None) from ``init`` to ``store``,
     which writes the particle's correction into a scratch field (``corr``, a vector, or
     ``rho_corr``) so that no particle moves while its neighbours read it; then the map

@@ -19,7 +19,7 @@ import math
 from numba.extending import register_jitable
 
 from ..registry import NONNEG, Choice, Param, add
-from . import Correction, make_apply, make_store_corr, vector_init
+from . import AfterStepPass, make_apply, make_store_corr, vector_init
 
 
 def make_dpc(ctx):
@@ -64,4 +64,4 @@ add("collision", Choice(
             Param("dpc_pmin", 0.0, "p_min of the repulsive pressure", unit="Pa", check=NONNEG),
             Param("dpc_pmax", 0.0, "p_max of the repulsive pressure; 0: 0.01 rho0 c0^2", unit="Pa", check=NONNEG)),
     p_fields=("dpc_scale", "dpc_w_half_inv", "dpc_lambda", "dpc_lambda_pmax", "dpc_pmin"), values=_values,
-    build=lambda ctx, q: Correction(vector_init(ctx), make_dpc(ctx), make_store_corr(ctx), make_apply(ctx, "v", False))))
+    build=lambda ctx, q: AfterStepPass(vector_init(ctx), make_dpc(ctx), make_store_corr(ctx), make_apply(ctx, "v", False))))

@@ -33,7 +33,7 @@ import math
 from numba.extending import register_jitable
 
 from ..registry import NONNEG, POS, Choice, Param, add
-from . import Correction
+from . import AfterStepPass
 
 R_TENSILE, N_TENSILE = 0.2, 4
 
@@ -132,7 +132,7 @@ def _build(per_particle):
     def build(ctx, q):
         init, store = make_shift_store(ctx, per_particle, q.continuity)
         wall = make_shift_term(ctx, False) if q.boundary == "particles" else make_shift_boundary(ctx)
-        return Correction(init, make_shift_term(ctx, q.continuity), store, make_shift_apply(ctx, q.continuity),
+        return AfterStepPass(init, make_shift_term(ctx, q.continuity), store, make_shift_apply(ctx, q.continuity),
                           wall=wall)
     return build
 

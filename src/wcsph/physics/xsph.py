@@ -11,7 +11,7 @@
 from numba.extending import register_jitable
 
 from ..registry import UNIT, Choice, Param, add
-from . import Correction, make_apply, make_store_corr, vector_init
+from . import AfterStepPass, make_apply, make_store_corr, vector_init
 from .interaction import Terms, add_accel
 
 EPSILON = Param("xsph_epsilon", 0.1, "epsilon of XSPH", check=UNIT)
@@ -65,5 +65,5 @@ add("xsph", Choice(
 add("xsph", Choice(
     "position", "third spec, XSPH correction (Monaghan 1989)", "dx_i/dt = v_i - epsilon sum_j m_j v_ij/rho_ij W_ij",
     params=(EPSILON,), p_fields=("xsph_epsilon",), values=lambda q: {"xsph_epsilon": q.m["xsph_epsilon"]},
-    build=lambda ctx, q: Correction(vector_init(ctx), make_xsph_position(ctx), make_store_corr(ctx),
+    build=lambda ctx, q: AfterStepPass(vector_init(ctx), make_xsph_position(ctx), make_store_corr(ctx),
                                     make_apply(ctx, "x", True))))

@@ -6,7 +6,7 @@ A step is the list ``stages``, each a callable of the run state (``run.state.Sta
 2. the step's parameters (``Integrate.parameters``);
 3. ``InflowBefore``: the open boundaries' buffers kept (cases with open boundaries);
 4. ``Integrate``: the integrator's evaluations and maps;
-5. ``Correct``: the model's after-step passes;
+5. ``AfterStep``: the model's after-step passes;
 6. ``InflowAfter``: buffers prescribed, particles enter and leave;
 7. ``Advance``: periodic wrap, time and step count;
 8. ``MoveWalls``: moving walls to the new time;
@@ -23,8 +23,8 @@ from ..errors import CaseError
 from ..io.probes import PointProbes
 from . import checkpoint, loop, setup
 from .advance import Advance
+from .after_step import AfterStep
 from .check import Check
-from .correct import Correct
 from .inflow import InflowAfter, InflowBefore
 from .integrate import Integrate
 from .loads import body_loads
@@ -57,7 +57,7 @@ class Simulation:
         integrate = Integrate(self.integrator)
         inflow = [InflowBefore(self.open)] if self.open is not None else []
         outflow = [InflowAfter(self.open)] if self.open is not None else []
-        self.stages = [Sort(), integrate.parameters, *inflow, integrate, Correct(), *outflow, Advance(),
+        self.stages = [Sort(), integrate.parameters, *inflow, integrate, AfterStep(), *outflow, Advance(),
                        MoveWalls(self.bodies), Check()]
         self.setup_time = time.perf_counter() - t_setup  # compiles (or loads) the loops
 
