@@ -33,6 +33,16 @@ from .timestep import TimeStep
 from .walls import MoveWalls
 
 
+def stages(integrator, bodies, open_boundaries):
+    """The ordered stages of a step (the module docstring lists them); the inflow stages only
+    for a case with open boundaries."""
+    integrate = Integrate(integrator)
+    inflow = [InflowBefore(open_boundaries)] if open_boundaries is not None else []
+    outflow = [InflowAfter(open_boundaries)] if open_boundaries is not None else []
+    return [Sort(), integrate.parameters, *inflow, integrate, AfterStep(), *outflow, Advance(), MoveWalls(bodies),
+            Check()]
+
+
 class Simulation:
     """A case set up on a backend, ready to step. ``case`` is a validated case dict.
     ``comm``: the MPI communicator to share the case over (``parallel``); by default the
@@ -54,11 +64,7 @@ class Simulation:
                              open=built.open, cfl=built.cfl, warnings=built.warnings, resumed_output=None)
         self.probes = PointProbes(self.state)
         self.time_step_rule = TimeStep(case["time"], self.cfl, self.integrator, self.model.kinematic_viscosity())
-        integrate = Integrate(self.integrator)
-        inflow = [InflowBefore(self.open)] if self.open is not None else []
-        outflow = [InflowAfter(self.open)] if self.open is not None else []
-        self.stages = [Sort(), integrate.parameters, *inflow, integrate, AfterStep(), *outflow, Advance(),
-                       MoveWalls(self.bodies), Check()]
+        self.stages = stages(self.integrator, self.bodies, self.open)
         self.setup_time = time.perf_counter() - t_setup  # compiles (or loads) the loops
 
     def __getattr__(self, name):  # the run state's fields
