@@ -167,24 +167,37 @@ def test_validate_command_writes_a_report(tmp_path):
 
 
 # ------------------------------------------------------------------ moving walls
-@pytest.mark.parametrize("motion", [
-    {"kind": "velocity", "velocity": [0.3, -0.1], "omega": 2.0},
-    {"kind": "sinusoidal", "amplitude": [0.05, 0.02], "angle_amplitude": 0.3, "frequency": 1.5, "phase": 0.2},
+MOTION_SPEC = {"velocity": None, "omega": 0.0, "amplitude": None, "angle_amplitude": 0.0, "frequency": 0.0,
+               "phase": 0.0, "centre": None, "axis": None, "file": ""}
+
+
+@pytest.mark.parametrize("dim, motion", [
+    (2, {"kind": "velocity", "velocity": [0.3, -0.1], "omega": 2.0}),
+    (2, {"kind": "sinusoidal", "amplitude": [0.05, 0.02], "angle_amplitude": 0.3, "frequency": 1.5, "phase": 0.2}),
+    (3, {"kind": "velocity", "velocity": [0.3, -0.1, 0.2], "omega": 2.0, "axis": [1.0, 2.0, 2.0]}),
+    (3, {"kind": "sinusoidal", "amplitude": [0.05, 0.02, 0.01], "angle_amplitude": 0.3, "frequency": 1.5,
+         "phase": 0.2, "axis": [0.0, 1.0, 1.0]}),
 ])
-def test_wall_velocity_is_the_rate_of_its_position(motion):
-    """v_b of every wall point is the time derivative of its position (central difference),
-    and normals turn with the body."""
-    spec = dict({"velocity": None, "omega": 0.0, "amplitude": None, "angle_amplitude": 0.0, "frequency": 0.0,
-                 "phase": 0.0, "centre": None, "axis": None, "file": ""}, **motion)
-    x0 = np.array([[0.0, 0.1, 0.1, 0.0], [0.0, 0.0, 0.1, 0.1]])
-    n0 = np.array([[0.0, 1.0, 0.0, -1.0], [-1.0, 0.0, 1.0, 0.0]])
+def test_wall_velocity_and_acceleration_are_the_rates_of_its_position(dim, motion):
+    """v_b and a_b of every wall point are the first and second time derivatives of its
+    position (central differences; the centripetal part included), and normals turn with
+    the body."""
+    spec = dict(MOTION_SPEC, **motion)
+    if dim == 2:
+        x0 = np.array([[0.0, 0.1, 0.1, 0.0], [0.0, 0.0, 0.1, 0.1]])
+        n0 = np.array([[0.0, 1.0, 0.0, -1.0], [-1.0, 0.0, 1.0, 0.0]])
+    else:
+        x0 = np.array([[0.0, 0.1, 0.1, 0.0], [0.0, 0.0, 0.1, 0.1], [0.0, 0.05, -0.1, 0.2]])
+        n0 = np.array([[0.0, 1.0, 0.0, -1.0], [-1.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
     body = np.zeros(4, dtype=np.int64)
-    b = Bodies([("square", spec, "obstacle[0]")], 2, x0, n0, body)
-    t, h = 0.37, 1e-6
-    xa, _, _ = b.place(t - h, x0, n0, body)
-    xb, _, _ = b.place(t + h, x0, n0, body)
-    x, n, v = b.place(t, x0, n0, body)
+    b = Bodies([("square", spec, "obstacle[0]")], dim, x0, n0, body)
+    t, h = 0.37, 1e-4
+    xa, _, va, _ = b.place(t - h, x0, n0, body)
+    xb, _, vb, _ = b.place(t + h, x0, n0, body)
+    x, n, v, a = b.place(t, x0, n0, body)
     assert np.allclose(v, (xb - xa) / (2 * h), atol=1e-6)
+    assert np.allclose(a, (xb - 2 * x + xa) / h**2, atol=1e-5)
+    assert np.allclose(a, (vb - va) / (2 * h), atol=1e-6)
     assert np.allclose(np.linalg.norm(n, axis=0), 1)
     edge = x[:, 1] - x[:, 0]  # the bottom edge; its normal stays perpendicular to it
     assert abs(edge @ n[:, 0]) < 1e-12
@@ -192,14 +205,22 @@ def test_wall_velocity_is_the_rate_of_its_position(motion):
 
 def test_table_motion_from_csv(tmp_path):
     (tmp_path / "m.csv").write_text("t,x,y,theta\n0,0,0,0\n1,0.2,0,0.1\n2,0.2,0.1,0.1\n")
-    spec = {"kind": "table", "file": "m.csv", "velocity": None, "omega": 0.0, "amplitude": None,
-            "angle_amplitude": 0.0, "frequency": 0.0, "phase": 0.0, "centre": [0.0, 0.0], "axis": None}
+    spec = dict(MOTION_SPEC, kind="table", file="m.csv", centre=[0.0, 0.0])
     x0 = np.array([[1.0], [0.0]])
-    b = Bodies([("flap", spec, "obstacle[0]")], 2, x0, None, np.zeros(1, dtype=np.int64), tmp_path)
-    x, n, v = b.place(0.5, x0, None, np.zeros(1, dtype=np.int64))
+    one = np.zeros(1, dtype=np.int64)
+    b = Bodies([("flap", spec, "obstacle[0]")], 2, x0, None, one, tmp_path)
+    x, n, v, a = b.place(0.5, x0, None, one)
     c, s = math.cos(0.05), math.sin(0.05)
     assert np.allclose(x[:, 0], [0.1 + c, s])
     assert n is None and np.allclose(v[:, 0], [0.2 - 0.1 * s, 0.1 * c])  # d' + omega x r
+    # the rates at the midpoints 0.5 and 1.5 are (0.2, 0, 0.1) and (0, 0.1, 0): their slope is
+    # the acceleration between them, plus the centripetal -omega^2 r (omega 0.1 in the first row)
+    x, _, v, a = b.place(0.9, x0, None, one)
+    r = x[:, 0] - [0.18, 0.0]
+    alpha, omega = -0.1, 0.1
+    assert np.allclose(a[:, 0], np.array([-0.2, 0.1]) + alpha * np.array([-r[1], r[0]]) - omega**2 * r)
+    x, _, _, a = b.place(0.25, x0, None, one)  # before the first midpoint: the centripetal part only
+    assert np.allclose(a[:, 0], -0.1**2 * (x[:, 0] - [0.05, 0.0]))
 
 
 # ------------------------------------------------------------------ case errors

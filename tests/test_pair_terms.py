@@ -114,3 +114,31 @@ def test_molteni_diffusion_moves_density_down_its_gradient(P, ctx):
     for rho, sign in (((1000.0, 1010.0), 1), ((1010.0, 1000.0), -1)):
         acc = _call(term, pair._replace(rho=np.array(rho)), 0, 1, P)
         assert np.sign(acc[1]) == sign
+
+
+@pytest.mark.parametrize("a_wall", [(0.0, 0.0), (3.0, -2.0)])
+def test_wall_pressure_is_exact_in_a_fluid_accelerating_with_the_wall(a_wall, P, ctx):
+    """A fluid at rest relative to a wall of acceleration a_b has p = rho (g - a_b) . (x - x_s):
+    the wall's interpolated pressure (Adami et al. 2012, eq. 27) is then exact, whatever the
+    weights, because every neighbour carries its own p to the wall along that gradient. The
+    same field read without a_b is off by rho a_b . (x_b - x_j) per neighbour."""
+    from wcsph.physics.renormalization import make_boundary_interpolation
+
+    Wall = namedtuple("Wall", "x a")
+    rng = np.random.default_rng(6)
+    g = np.array([P.gx, P.gy])
+    rho = 1000.0
+    xb = np.array([0.0, 0.0])
+    xs = rng.uniform(-0.1, 0.1, 2)
+    xf = xb[:, None] + rng.uniform(-1.5, 1.5, (2, 6)) * H
+    p = rho * ((g - a_wall) @ (xf - xs[:, None]))
+    fluid = Pair(np.vstack([xf, np.zeros((1, 6))]), np.zeros((3, 6)), np.full(6, rho), p, p / rho**2,
+                 np.full(6, 1e-4), np.full(6, 0.1), np.full(6, 17.0))
+    wall = Wall(xb[:, None], np.array(a_wall, dtype=float)[:, None])
+    term = make_boundary_interpolation(ctx)
+    acc = (0.0, 0.0, 0.0)
+    for j in range(6):
+        d = xb - xf[:, j]
+        acc = term(0, j, d[0], d[1], 0.0, float(np.linalg.norm(d)), wall, fluid, P, acc)
+    assert acc[2] > 0
+    assert acc[0] / acc[2] == pytest.approx(rho * (g - a_wall) @ (xb - xs), rel=1e-12, abs=1e-9)

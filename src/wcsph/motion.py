@@ -6,7 +6,9 @@ n(t) = R(theta(t)) n0, with c the body's ``centre`` (its initial centroid when n
 d(t) the displacement and theta(t) the rotation angle (about z in 2D, about ``axis`` in 3D).
 The wall velocity v_b = d'(t) + omega x (X - c - d) is what every wall term reads (the
 boundary-integral divergence and viscous terms, Akinci's viscous term, the elastic bounce,
-NBVC-PST), as in DualSPHysics' moving boundaries and TNL-SPH's movingSquare2D.
+NBVC-PST), as in DualSPHysics' moving boundaries and TNL-SPH's movingSquare2D. The wall
+acceleration a_b = d''(t) + omega' x r + omega x (omega x r) (r = X - c - d) is what the wall
+pressure reads (Adami, Hu & Adams 2012, eq. 27: p_b carried from the fluid along g - a_b).
 
 Kinds (``motion.kind``):
 
@@ -15,7 +17,10 @@ Kinds (``motion.kind``):
   A, ``angle_amplitude`` Theta, ``frequency`` f, ``phase`` phi);
 * ``table``: a CSV ``file`` with columns t, x, y[, z], theta (a header row allowed): d and
   theta interpolated linearly, their rates the slopes of the segment t lies in (the exact
-  derivative of the interpolated motion); held at the last row after the table ends.
+  derivative of the interpolated motion); held at the last row after the table ends. The
+  acceleration of a table is that of its rates taken at the segments' midpoints and
+  interpolated linearly between them (the central difference of the rows: the slopes
+  themselves jump at every row).
 """
 import math
 from pathlib import Path
@@ -75,6 +80,11 @@ class Motion:
                 raise CaseError(f"{key}.file: {path}: the times must increase")
             self.table = data
             self.rates = np.diff(data[:, 1:], axis=0) / np.diff(t)[:, None]
+            mid = 0.5 * (t[1:] + t[:-1])
+            # the rates' slopes between segment midpoints (zero before the first, after the last)
+            self.mid = mid
+            self.accels = (np.diff(self.rates, axis=0) / np.diff(mid)[:, None]
+                           if len(mid) > 1 else np.zeros((0, dim + 1)))
 
     def state(self, t):
         """(d (dim,), theta, d' (dim,), omega) at time t."""
@@ -93,6 +103,21 @@ class Motion:
         else:
             rate = self.rates[min(max(int(np.searchsorted(t0, t, side="right")) - 1, 0), len(self.rates) - 1)]
         return row[: self.dim], float(row[-1]), rate[: self.dim], float(rate[-1])
+
+    def acceleration(self, t):
+        """(d'' (dim,), omega') at time t."""
+        s = self.spec
+        if self.kind == "velocity":
+            return np.zeros(self.dim), 0.0
+        if self.kind == "sinusoidal":
+            w = 2 * math.pi * s["frequency"]
+            sn = math.sin(w * t + s["phase"])
+            return -self.a * w * w * sn, -s["angle_amplitude"] * w * w * sn
+        mid = self.mid
+        if len(self.accels) == 0 or t < mid[0] or t >= mid[-1]:
+            return np.zeros(self.dim), 0.0
+        acc = self.accels[int(np.searchsorted(mid, t, side="right")) - 1]
+        return acc[: self.dim], float(acc[-1])
 
     def rotation(self, theta):
         """The rotation matrix R(theta) (dim x dim)."""
@@ -135,8 +160,8 @@ class Bodies:
         self.moving = any(m is not None for m in self.motions)
 
     def place(self, t, x0, n0, body):
-        """(x, n, v) of every wall point at time t."""
-        x, v = x0.copy(), np.zeros_like(x0)
+        """(x, n, v, a) of every wall point at time t."""
+        x, v, a = x0.copy(), np.zeros_like(x0), np.zeros_like(x0)
         n = n0.copy() if n0 is not None else None
         for b, mo in enumerate(self.motions):
             if mo is None:
@@ -144,17 +169,21 @@ class Bodies:
             sel = body == b
             c = self.centres[b][:, None]
             d, theta, u, omega = mo.state(t)
+            du, alpha = mo.acceleration(t)
             R = mo.rotation(theta)
             r = R @ (x0[:, sel] - c)
             x[:, sel] = c + d[:, None] + r
             if n is not None:
                 n[:, sel] = R @ n0[:, sel]
             if self.dim == 2:
-                w = np.array([-r[1], r[0]]) * omega
+                k_r = np.array([-r[1], r[0]])  # e_z x r
             else:
-                w = np.cross(mo.axis * omega, r.T).T
-            v[:, sel] = u[:, None] + w
-        return x, n, v
+                k_r = np.cross(mo.axis, r.T).T
+            v[:, sel] = u[:, None] + omega * k_r
+            # tangential omega' x r and centripetal omega x (omega x r) = -omega^2 r_perp
+            r_perp = r if self.dim == 2 else r - np.outer(mo.axis, mo.axis @ r)
+            a[:, sel] = du[:, None] + alpha * k_r - omega * omega * r_perp
+        return x, n, v, a
 
     def reference(self, b, t):
         """The centre of body b at time t (the point torques are taken about)."""

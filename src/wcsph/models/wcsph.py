@@ -68,14 +68,14 @@ for _flags in __import__("itertools").product((False, True), repeat=len(_FLAGS))
     _fields = " ".join([_FLUID] + [k for k, (_, flag) in FLUID_FIELDS.items() if flag in _on] + ["cell start"])
     globals()[_name] = namedtuple(_name, _fields)
 FluidView = globals()[_fluid_view_name((False,) * len(_FLAGS))]
-ElementView = namedtuple("ElementView", "x v n elementSize p rho cell start")
+ElementView = namedtuple("ElementView", "x v a n elementSize p rho cell start")
 #: boundary elements as the load pass writes them
-LoadView = namedtuple("LoadView", "x v n elementSize load cell start")
+LoadView = namedtuple("LoadView", "x v a n elementSize load cell start")
 #: boundary particles as the classic terms see them (Psi only), and with V = Psi/rho0, rho0
 ParticleWallView = namedtuple("ParticleWallView", "x v psi cell start")
 ParticleWallViewFull = namedtuple("ParticleWallViewFull", "x v psi vol rho cell start")
 #: ... with the wall particles' own pressure (``wall_pressure = "adami"``)
-ParticleWallViewPressure = namedtuple("ParticleWallViewPressure", "x v psi vol rho p pr cell start")
+ParticleWallViewPressure = namedtuple("ParticleWallViewPressure", "x v a psi vol rho p pr cell start")
 #: boundary particles as the no-slip velocity pass writes them
 NoSlipWallView = namedtuple("NoSlipWallView", "x v v_ext cell start")
 #: the kinds of the wall sets' fields a view may lack in a case (a stand-in is passed)

@@ -4,8 +4,8 @@ One pass over the elements b with their fluid neighbours j gives each element it
 F_b = p_b n_b S_b + T_b:
 
 * p_b, the wall's own pressure: the Shepard interpolation of the fluid's pressure with the
-  hydrostatic correction of Adami, Hu & Adams (2012), p_b = sum_j (p_j + rho_j g . (x_b - x_j))
-  W_bj V_j / sum_j W_bj V_j (0 where the element is dry, sum_j W V_j below ``DRY``), not
+  correction of Adami, Hu & Adams (2012), p_b = sum_j (p_j + rho_j (g - a_b) . (x_b - x_j))
+  W_bj V_j / sum_j W_bj V_j (a_b the element's acceleration) (0 where the element is dry, sum_j W V_j below ``DRY``), not
   clamped (suction behind a moving body is part of its drag). Normalized per element, a
   uniform pressure loads a closed body with exactly p sum_b n_b S_b = 0 however the particles
   lie: the sum over particles of the wall pressure term, which the fluid's momentum sees,
@@ -45,7 +45,7 @@ def make_element_loads(ctx, shear, consistent):
     @register_jitable
     def pair(i, j, dx, dy, dz, r, I, J, P, acc):
         wv = w(r, P) * J.vol[j]
-        p = sample(j, dx, dy, dz, J, P)
+        p = sample(i, I, j, dx, dy, dz, J, P)
         # the fluid's friction from this element, reversed
         f = shear(j, i, -dx, -dy, -dz, r, J, I, P, (zero, zero, zero, zero, zero, zero, zero, zero, zero))
         k = J.vol[j] / J.shepard[j] if consistent and J.shepard[j] > zero else J.vol[j]

@@ -18,15 +18,16 @@ def make_shepard(ctx):
 
 
 def make_hydrostatic_sample(ctx):
-    """p_j carried from fluid particle j to the wall point x_j + (dx, dy, dz) along the
-    hydrostatic gradient, p_j + rho_j g . (dx, dy, dz) (Adami, Hu & Adams 2012, eq. 27 for a
-    fixed wall)."""
+    """p_j carried from fluid particle j to the point x_i = x_j + (dx, dy, dz) of wall I along
+    the pressure gradient of a fluid at rest relative to the wall, p_j + rho_j (g - a_i) .
+    (dx, dy, dz) with a_i the wall's acceleration (Adami, Hu & Adams 2012, eq. 27; ``motion``
+    gives a_i, zero for a fixed wall or a constant velocity)."""
     dim, zero = ctx.dim, ctx.zero
 
     @register_jitable
-    def sample(j, dx, dy, dz, J, P):
-        gz = P.gz * dz if dim == 3 else zero
-        return J.p[j] + J.rho[j] * (P.gx * dx + P.gy * dy + gz)
+    def sample(i, I, j, dx, dy, dz, J, P):
+        gz = (P.gz - I.a[2, i]) * dz if dim == 3 else zero
+        return J.p[j] + J.rho[j] * ((P.gx - I.a[0, i]) * dx + (P.gy - I.a[1, i]) * dy + gz)
 
     return sample
 
@@ -42,7 +43,7 @@ def make_boundary_interpolation(ctx):
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         wv = w(r, P) * J.vol[j]
-        return (acc[0] + sample(j, dx, dy, dz, J, P) * wv, acc[1] + J.rho[j] * wv, acc[2] + wv)
+        return (acc[0] + sample(i, I, j, dx, dy, dz, J, P) * wv, acc[1] + J.rho[j] * wv, acc[2] + wv)
 
     return term
 

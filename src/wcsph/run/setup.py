@@ -76,6 +76,7 @@ def build(case, backend, comm):
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent)
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
     walls.add("v", "vector", dtype, be)
+    walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)
     walls["body"] = be.to_device(body)  # the body each wall point belongs to
     if bodies.moving:  # the placement at t = 0 each moving wall point is carried from
         walls["x0"] = be.to_device(wall0["x"].astype(dtype))

@@ -3,16 +3,17 @@ from ..errors import SimulationError
 
 
 def place_walls(state, bodies, t):
-    """Moving walls to their position, normal and velocity at time t, then wrapped and
+    """Moving walls to their position, normal, velocity and acceleration at time t, then wrapped and
     sorted; nothing when every wall is fixed."""
     if not bodies.moving:
         return
     be, w, dtype = state.backend, state.walls, state.dtype
     x0, body = state.host(w, "x0", "body")
     n0 = be.to_host(w["n0"]) if "n0" in w.arrays else None
-    x, n, v = bodies.place(t, x0.astype(float), None if n0 is None else n0.astype(float), body)
+    x, n, v, a = bodies.place(t, x0.astype(float), None if n0 is None else n0.astype(float), body)
     w["x"] = be.to_device(x.astype(dtype))
     w["v"] = be.to_device(v.astype(dtype))
+    w["a"] = be.to_device(a.astype(dtype))
     if n is not None:
         w["n"] = be.to_device(n.astype(dtype))
     be.wrap(w, state.grid)
