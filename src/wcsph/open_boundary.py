@@ -23,14 +23,12 @@ of the outlet buffer is removed. The counts go to ``run.json`` (``open_boundary`
 Arrays grow and shrink on the host (on the CUDA backend a round trip per step in which
 particles are created or removed): the next thing to move to the device.
 """
-from collections import namedtuple
 
 import numpy as np
-from numba.extending import register_jitable
 
 from .expressions import evaluate
+from .io.sampling import PointSampler
 from .kernels import SUPPORT, smoothing_length
-from .particles import ParticleSet
 from .registry import one_of
 
 #: the ``[[open_boundary]]`` table, in the config schema's form
@@ -43,8 +41,6 @@ OPEN_BOUNDARY = {
     "pressure": ("formula", None, None),
 }
 
-ExtrapPoints = namedtuple("ExtrapPoints", "x sum_w sum_rho sum_v cell start")
-ExtrapFluid = namedtuple("ExtrapFluid", "x v rho m kind cell start")
 
 
 def check(src, case, fail):
@@ -226,31 +222,15 @@ class OpenBoundaries:
     def _extrapolate(self, state, x, kind, sel):
         """Shepard sums (sum W V, sum W V rho, sum W V v) over fluid particles around the
         mirror images of particles ``sel`` in their boundary planes."""
-        be = state.backend
         pts = x[:, sel].copy()
         for k in range(len(self.specs)):
             mine = kind[sel] == k + 1
             a = self.axis[k]
             pts[a, mine] = 2 * self.plane[k] - pts[a, mine]
-        dt = state.dtype
-        s = ParticleSet("mirror", self.dim, {"x": be.to_device(pts.astype(dt))})
-        for name in ("sum_w", "sum_rho"):
-            s.add(name, "scalar", dt, be)
-        s.add("sum_v", "vector", dt, be)
-        s["order"] = be.to_device(np.arange(pts.shape[1], dtype=np.int64))
-        be.sort(s, state.grid)
         if self._sampler is None:
-            from .physics import Ctx
-
-            self._sampler = _make_sampler(Ctx.create(dt, self.dim, state.case["model"]["kernel"]), be,
-                                          state.model.periodic)
-        fl = state.fluid
-        # the fluid's cell list is the step's: positions have moved by far less than a cell
-        J = ExtrapFluid(fl["x"], fl["v"], fl["rho"], fl["m"], fl["kind"], fl["cell"], fl["start"])
-        self._sampler(s.view(ExtrapPoints), J, J, state.P, state.G)
-        order = np.argsort(be.to_host(s["order"]))
-        w, r, v = (be.to_host(s[k]).astype(float) for k in ("sum_w", "sum_rho", "sum_v"))
-        return w[order], r[order], v[:, order]
+            self._sampler = PointSampler(state, skip_buffers=True)
+        sums = self._sampler.sums(pts)
+        return sums["w"], sums["rho"], sums["v"]
 
     def summary(self):
         return {"created": self.created, "removed": self.removed}
@@ -260,33 +240,6 @@ class OpenBoundaries:
 
     def restore(self, state):
         self.created, self.removed = state["created"], state["removed"]
-
-
-def _make_sampler(ctx, backend, periodic):
-    w, zero, dim = ctx.w, ctx.zero, ctx.dim
-
-    @register_jitable
-    def init(i, I, P):
-        return (zero, zero, zero, zero, zero)
-
-    @register_jitable
-    def pair(i, j, dx, dy, dz, r, I, J, P, acc):
-        if J.kind[j] != 0:
-            return acc
-        wv = w(r, P) * J.m[j] / J.rho[j]
-        vz = J.v[2, j] * wv if dim == 3 else zero
-        return (acc[0] + wv, acc[1] + J.rho[j] * wv, acc[2] + J.v[0, j] * wv, acc[3] + J.v[1, j] * wv, acc[4] + vz)
-
-    @register_jitable
-    def store(i, I, P, acc):
-        I.sum_w[i] = acc[0]
-        I.sum_rho[i] = acc[1]
-        I.sum_v[0, i] = acc[2]
-        I.sum_v[1, i] = acc[3]
-        if dim == 3:
-            I.sum_v[2, i] = acc[4]
-
-    return backend.make_pass(dim, ctx.dtype, init, pair, store, periodic=periodic)
 
 
 def resize(state, keep, new):

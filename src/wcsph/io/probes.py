@@ -1,6 +1,5 @@
 """Probes: per-output-step scalar records written to ``probes.csv``."""
 import csv
-from collections import namedtuple
 
 import numpy as np
 
@@ -47,40 +46,11 @@ class ProbeWriter:
 
 
 # ------------------------------------------------------------------ point probes
-ProbePoints = namedtuple("ProbePoints", "x sum_p sum_w sum_c cell start")
-ProbeFluid = namedtuple("ProbeFluid", "x p rho m dvdt cell start")
-
-#: below this kernel sum (sum_j W V_j; about 1 inside the fluid, 1/2 on a wall) a sensor is dry,
-#: as a boundary element is for its load
 from ..physics.loads import DRY  # noqa: E402
+from .sampling import PointSampler  # noqa: E402
+
 #: a level gauge samples its line every dp / GAUGE_SAMPLES
 GAUGE_SAMPLES = 4
-
-
-def _make_sampler(ctx, backend, periodic):
-    from numba.extending import register_jitable
-
-    w, zero, dim = ctx.w, ctx.zero, ctx.dim
-
-    @register_jitable
-    def init(i, I, P):
-        return (zero, zero, zero)
-
-    @register_jitable
-    def pair(i, j, dx, dy, dz, r, I, J, P, acc):
-        wv = w(r, P) * J.m[j] / J.rho[j]
-        # grad p = rho (g - Dv/Dt) at j (the momentum equation), times x_s - x_j
-        gz = (P.gz - J.dvdt[2, j]) * dz if dim == 3 else zero
-        c = J.rho[j] * ((P.gx - J.dvdt[0, j]) * dx + (P.gy - J.dvdt[1, j]) * dy + gz)
-        return (acc[0] + J.p[j] * wv, acc[1] + wv, acc[2] + c * wv)
-
-    @register_jitable
-    def store(i, I, P, acc):
-        I.sum_p[i] = acc[0]
-        I.sum_w[i] = acc[1]
-        I.sum_c[i] = acc[2]
-
-    return backend.make_pass(ctx.dim, ctx.dtype, init, pair, store, periodic=periodic)
 
 
 class PointProbes:
@@ -100,9 +70,6 @@ class PointProbes:
     """
 
     def __init__(self, state):
-        from ..particles import ParticleSet
-        from ..physics import Ctx
-
         case = state.case
         self.state = state
         self.specs = case["probes"]
@@ -130,16 +97,7 @@ class PointProbes:
         allp = np.concatenate(pts, axis=1)
         self.base = allp
         self.heights = allp[-1]
-        be, dtype = state.backend, state.dtype
-        self.points = ParticleSet("probes", state.dim, {"x": be.to_device(allp.astype(dtype))})
-        for name in ("sum_p", "sum_w", "sum_c"):
-            self.points.add(name, "scalar", dtype, be)
-        self.points["order"] = be.to_device(np.arange(self.n, dtype=np.int64))
-        if be.sort(self.points, state.grid):  # a point outside the grid would shift every later column
-            raise RuntimeError("a probe point lies outside the cell grid")
-        self.order = np.argsort(be.to_host(self.points["order"]))
-        ctx = Ctx.create(dtype, state.dim, case["model"]["kernel"])
-        self.sampler = _make_sampler(ctx, be, state.model.periodic)
+        self.sampler = PointSampler(state, allp)
 
     def columns(self):
         return [p["name"] for p in self.specs]
@@ -151,10 +109,8 @@ class PointProbes:
         state.settle()
         if not self.n:
             return {}
-        f = state.fluid
-        fluid = ProbeFluid(f["x"], f["p"], f["rho"], f["m"], f["dvdt"], f["cell"], f["start"])
-        self.sampler(self.points.view(ProbePoints), fluid, fluid, state.P, state.G)
-        sp, sw, sc = (state.backend.to_host(self.points[k]).astype(float)[self.order] for k in ("sum_p", "sum_w", "sum_c"))
+        sums = self.sampler.sums()
+        sp, sw, sc = sums["p"], sums["w"], sums["c"]
         par = state.par
         if par is not None:  # each point from the rank whose slab holds it (its neighbours are there)
             mine = par.owner(par.column(self.base)) == par.rank
