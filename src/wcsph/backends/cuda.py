@@ -1,13 +1,19 @@
 """CUDA backend (numba-cuda): the same physics functions compiled as device functions inside
 one kernel per pass, one thread per particle of set I.
 
-Sorting computes cell ids on the device and orders them with CuPy when it is installed (on a
-real GPU), else on the host; this is correct everywhere, including the simulator
-(``NUMBA_ENABLE_CUDASIM=1``) used by the tests, but the host round trip is the first thing to
-replace for speed (a device radix sort).
+Everything stays on the device, with numba-cuda alone (no CuPy), the same in the simulator
+(``NUMBA_ENABLE_CUDASIM=1``) the tests run:
+
+* the sort is a counting sort on the cell ids: an atomic histogram, an exclusive scan of it
+  (the cell starts), an atomic scatter of the particle indices into their cells, then each
+  cell's indices put in increasing order (the scatter's order depends on the threads' timing;
+  after it the permutation is exactly the CPU's stable argsort), then the gather of every field;
+* reductions (the step's largest speed and acceleration, a sum of residuals) are a block
+  reduction in shared memory and one final block; only the few results cross to the host.
+
+The grid constants are uploaded once per grid.
 """
 import math
-import os
 
 import numpy as np
 from numba import cuda
@@ -15,13 +21,8 @@ from numba import cuda
 from .walk import make_periodic_walk, make_run_visitor
 
 THREADS = 128
-
-_cp = None
-if os.environ.get("NUMBA_ENABLE_CUDASIM", "0") != "1":
-    try:  # CuPy sorts and reduces on the device when present
-        import cupy as _cp
-    except ImportError:  # pragma: no cover - depends on the machine
-        _cp = None
+#: elements a thread scans serially in the cell-start scan (a level of the scan)
+SCAN_CHUNK = 64
 
 
 def _blocks(n):
@@ -56,6 +57,118 @@ def _gather2(src, perm, dst):
     if k < dst.shape[1]:
         for d in range(src.shape[0]):
             dst[d, k] = src[d, perm[k]]
+
+
+@cuda.jit
+def _histogram(cell, count):
+    i = cuda.grid(1)
+    if i < cell.size:
+        cuda.atomic.add(count, cell[i], 1)
+
+
+@cuda.jit
+def _chunk_sums(a, chunk, sums):
+    t = cuda.grid(1)
+    if t < sums.size:
+        s = 0
+        for k in range(t * chunk, min((t + 1) * chunk, a.size)):
+            s += a[k]
+        sums[t] = s
+
+
+@cuda.jit
+def _chunk_scan(a, chunk, offsets, out):
+    """out[k] = offsets[t] + sum of a over the chunk's elements before k (exclusive)."""
+    t = cuda.grid(1)
+    if t * chunk < a.size:
+        s = offsets[t]
+        for k in range(t * chunk, min((t + 1) * chunk, a.size)):
+            out[k] = s
+            s += a[k]
+
+
+@cuda.jit
+def _scatter_cells(cell, fill, perm):
+    i = cuda.grid(1)
+    if i < cell.size:
+        perm[cuda.atomic.add(fill, cell[i], 1)] = i
+
+
+@cuda.jit
+def _order_cells(start, perm):
+    """Each cell's particle indices in increasing order (insertion sort: a cell holds tens)."""
+    c = cuda.grid(1)
+    if c < start.size - 1:
+        lo, hi = start[c], start[c + 1]
+        for k in range(lo + 1, hi):
+            v = perm[k]
+            m = k - 1
+            while m >= lo and perm[m] > v:
+                perm[m + 1] = perm[m]
+                m -= 1
+            perm[m + 1] = v
+
+
+@cuda.jit
+def _fill(a, value):
+    i = cuda.grid(1)
+    if i < a.size:
+        a[i] = value
+
+
+_SCRATCH = {}
+
+
+def _scratch(shape, dtype=np.float64):
+    """A device array for a result that is reduced before the call that asked returns (kept
+    per shape: no allocation per step)."""
+    key = (shape, np.dtype(dtype))
+    if key not in _SCRATCH:
+        _SCRATCH[key] = cuda.device_array(shape, dtype=dtype)
+    return _SCRATCH[key]
+
+
+def _buffer(work, name, n):
+    """The int64 device array ``name`` of length n from the dict ``work`` (allocated once)."""
+    a = work.get(name)
+    if a is None or a.size != n:
+        a = work[name] = cuda.device_array(n, dtype=np.int64)
+    return a
+
+
+def _exclusive_scan(a, out, work, level=0):
+    """out[k] = sum of a[:k] (int64 device arrays of one length): chunks of SCAN_CHUNK summed,
+    the sums scanned the same way (recursively), then each chunk scanned from its offset."""
+    nchunks = math.ceil(a.size / SCAN_CHUNK)
+    offsets = _buffer(work, f"offsets{level}", nchunks)
+    if nchunks <= 1:
+        _fill[1, 1](offsets, 0)
+    else:
+        sums = _buffer(work, f"sums{level}", nchunks)
+        _chunk_sums[_blocks(nchunks), THREADS](a, SCAN_CHUNK, sums)
+        _exclusive_scan(sums, offsets, work, level + 1)
+    _chunk_scan[_blocks(nchunks), THREADS](a, SCAN_CHUNK, offsets, out)
+
+
+def _counting_sort(cell, ncells, work):
+    """(perm, start) for cell ids in [0, ncells] (ncells: outside the grid): perm the stable
+    order by cell (new position -> old index), start[c] the first position of cell c,
+    start[ncells + 1] = n. All on the device, in the buffers of the dict ``work`` (one per
+    particle set: its ``start`` and ``_perm`` are these)."""
+    n = cell.size
+    count = _buffer(work, "count", ncells + 2)
+    _fill[_blocks(ncells + 2), THREADS](count, 0)
+    if n:
+        _histogram[_blocks(n), THREADS](cell, count)
+    start = _buffer(work, "start", ncells + 2)
+    _exclusive_scan(count, start, work)
+    perm = _buffer(work, "perm", n)
+    if n:
+        fill = _buffer(work, "fill", ncells + 2)
+        fill.copy_to_device(start)
+        _scatter_cells[_blocks(n), THREADS](cell, fill, perm)
+        _order_cells[_blocks(ncells + 1), THREADS](start, perm)
+    return perm, start
 
 
 @cuda.jit
@@ -196,25 +309,78 @@ def _make_reduce_kernel(fn):
         n = I.x.shape[1]
         if n == 0:
             return 0.0, 0.0, 0.0
-        out = cuda.device_array((3, n), dtype=np.float64)
+        out = _scratch((3, n))
         run[_blocks(n), THREADS](I, P, out)
         return _reduce_rows(out, ("sum", "sum", "max"), owned)
 
     return launch
 
 
+@cuda.jit
+def _reduce_blocks(out, is_max, mask, masked, partial):
+    """partial[r, b]: row r of ``out`` reduced (sum, or max where is_max[r]) over the columns
+    of block b's grid-stride share (columns with mask[i] != 0 only, when ``masked``)."""
+    tile = cuda.shared.array(THREADS, dtype=np.float64)
+    t = cuda.threadIdx.x
+    n = out.shape[1]
+    for r in range(out.shape[0]):
+        acc = -math.inf if is_max[r] else 0.0
+        i = cuda.grid(1)
+        while i < n:
+            if not masked or mask[i] != 0:
+                v = out[r, i]
+                acc = max(acc, v) if is_max[r] else acc + v
+            i += cuda.gridsize(1)
+        tile[t] = acc
+        cuda.syncthreads()
+        step = THREADS // 2
+        while step > 0:
+            if t < step:
+                tile[t] = max(tile[t], tile[t + step]) if is_max[r] else tile[t] + tile[t + step]
+            cuda.syncthreads()
+            step //= 2
+        if t == 0:
+            partial[r, cuda.blockIdx.x] = tile[0]
+        cuda.syncthreads()
+
+
+#: blocks of the first reduction level (their partial results are reduced by one more block)
+REDUCE_BLOCKS = 128
+_OPS = {}  # the rows' ops as device flags, per tuple of ops
+
+
 def _reduce_rows(out, ops, owned=None):
-    """Each row of a (rows, n) device array reduced by its op ("sum" or "max"), on the
-    device with CuPy when present, else on the host; over the columns with ``owned[i]``
-    when given (a process of a decomposed run skips its ghost copies)."""
-    if owned is not None:  # the host reduces a decomposed run's rows (staged, like its halo)
-        mask = owned.copy_to_host() if hasattr(owned, "copy_to_host") else np.asarray(owned)
-        o = out.copy_to_host()[:, mask.astype(bool)]
-        return tuple(float(getattr(o[k], op)()) if o.shape[1] else 0.0 for k, op in enumerate(ops))
-    o = _cp.asarray(out) if _cp is not None else out.copy_to_host()
-    r = [getattr(o[k], op)() for k, op in enumerate(ops)]
-    r = _cp.stack(r).get() if _cp is not None else r
-    return tuple(float(v) for v in r)
+    """Each row of a (rows, n) float64 device array reduced by its op ("sum" or "max") on the
+    device, over the columns with ``owned[i]`` when given (a process of a decomposed run skips
+    its ghost copies); the rows' results (a max over no column: 0) copied to the host."""
+    rows, n = out.shape
+    if n == 0:
+        return (0.0,) * rows
+    if ops not in _OPS:
+        _OPS[ops] = cuda.to_device(np.array([op == "max" for op in ops], dtype=np.int8))
+    is_max = _OPS[ops]
+    if "unmasked" not in _OPS:
+        _OPS["unmasked"] = cuda.to_device(np.zeros(1, dtype=np.int8))
+    unmasked = _OPS["unmasked"]
+    if owned is None:
+        mask = unmasked
+    else:
+        mask = owned if hasattr(owned, "copy_to_host") else cuda.to_device(np.ascontiguousarray(owned))
+    nb = min(REDUCE_BLOCKS, _blocks(n))
+    partial = _scratch((rows, nb))
+    _reduce_blocks[nb, THREADS](out, is_max, mask, owned is not None, partial)
+    final = _scratch((rows, 1))
+    _reduce_blocks[1, THREADS](partial, is_max, unmasked, False, final)
+    r = final.copy_to_host()[:, 0]
+    return tuple(0.0 if (op == "max" and v == -math.inf) else float(v) for v, op in zip(r, ops))
+
+
+def _on_device(grid, dt):
+    """The grid's origin and inverse cell size in dtype ``dt`` as device arrays, uploaded once."""
+    cache = grid.__dict__.setdefault("_device_geometry", {})
+    if dt not in cache:
+        cache[dt] = tuple(cuda.to_device(a) for a in grid.geometry(dt))
+    return cache[dt]
 
 
 class CudaBackend:
@@ -259,40 +425,34 @@ class CudaBackend:
         g = grid.view()
         x = pset["x"]
         n = pset.n
-        origin, inv_cell = grid.geometry(np.dtype(x.dtype).type)
+        origin, inv_cell = _on_device(grid, np.dtype(x.dtype).type)
         if "cell" not in pset.arrays or pset["cell"].shape[0] != n:
             pset["cell"] = cuda.device_array(n, dtype=np.int64)
         cell = pset["cell"]
         if n:
-            _cell_ids[_blocks(n), THREADS](x, cuda.to_device(origin), cuda.to_device(inv_cell), g.nx, g.ny, g.nz,
-                                            g.ncells, g.k, cell)
+            _cell_ids[_blocks(n), THREADS](x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell)
             if drop is not None:
                 _drop_cells[_blocks(n), THREADS](cell, drop, g.ncells)
-        if _cp is not None:
-            c = _cp.asarray(cell)
-            perm_c = _cp.argsort(c, kind="stable") if n else _cp.zeros(0, dtype=_cp.int64)
-            start = _cp.searchsorted(c[perm_c], _cp.arange(g.ncells + 2)).astype(_cp.int64)
-            perm = cuda.as_cuda_array(perm_c.astype(_cp.int64))
-            start_d = cuda.as_cuda_array(start)
-            n_in = int(start[g.ncells].get())
-        else:
-            ch = cell.copy_to_host()
-            perm_h = np.argsort(ch, kind="stable")
-            start_h = np.searchsorted(ch[perm_h], np.arange(g.ncells + 2)).astype(np.int64)
-            perm = cuda.to_device(perm_h)
-            start_d = cuda.to_device(start_h)
-            n_in = int(start_h[g.ncells])
+        perm, start_d = _counting_sort(cell, g.ncells, pset.__dict__.setdefault("_sort_work", {}))
+        n_in = int(start_d[g.ncells:g.ncells + 1].copy_to_host()[0])
         pset["start"] = start_d
         pset["_perm"] = perm  # new position -> old (a decomposed run maps its halo lists through it)
         dropped = n - n_in
         fields = pset.sorted_fields()
         scratch = [k for k in pset.per_particle() if k not in fields]
-        for k in fields:  # the first n_in of the new order: the dropped ones are sorted last
+        # the first n_in of the new order (the dropped ones are sorted last), gathered into
+        # the set's spare copy of each field, which then swaps with it (ping-pong: no
+        # allocation while the count holds)
+        spare = pset.__dict__.setdefault("_spare", {})
+        for k in fields:
             a = pset[k]
-            out = cuda.device_array(a.shape[:-1] + (n_in,), dtype=a.dtype)
+            out = spare.get(k)
+            if out is None or out.shape != a.shape[:-1] + (n_in,) or out.dtype != a.dtype:
+                out = cuda.device_array(a.shape[:-1] + (n_in,), dtype=a.dtype)
             if n_in:
                 (_gather1 if a.ndim == 1 else _gather2)[_blocks(n_in), THREADS](a, perm, out)
             pset[k] = out
+            spare[k] = a
         if dropped:
             for k in scratch:  # written before they are read: only their size matters
                 pset[k] = cuda.device_array(pset[k].shape[:-1] + (n_in,), dtype=pset[k].dtype)
@@ -325,7 +485,7 @@ class CudaBackend:
         n = pset.n
         if n == 0:
             return 0.0, 0.0, 0
-        out = cuda.device_array((3, n), dtype=np.float64)
+        out = _scratch((3, n))
         _speeds[_blocks(n), THREADS](pset["x"], pset["v"], pset["dvdt"], out)
         vmax2, amax2, bad = _reduce_rows(out, ("max", "max", "sum"), owned)
         return vmax2, amax2, int(bad)

@@ -1,0 +1,78 @@
+"""Per step of the CUDA backend, counted in Numba's CUDA simulator (no GPU needed): kernel
+launches (by kernel), device allocations, host-to-device and device-to-host copies. These
+are what bind a small or medium GPU step (each launch costs microseconds of host time, each
+device-to-host copy a synchronisation), so they are counted where no GPU is lent.
+
+    python benchmarks/cuda_counts.py [CASE] [--dp DP] [--steps N]
+
+Runs CASE (default dam_break_2d_bi) for 3 warm-up steps, then counts over N more (default 4)
+and prints the counts per step.
+"""
+import argparse
+import collections
+import os
+import sys
+
+os.environ["NUMBA_ENABLE_CUDASIM"] = "1"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("case", nargs="?", default="dam_break_2d_bi")
+    ap.add_argument("--dp", type=float, default=0.05)
+    ap.add_argument("--steps", type=int, default=4)
+    a = ap.parse_args(argv)
+
+    from numba.cuda.simulator import kernel
+    from numba.cuda.simulator.cudadrv import devicearray
+
+    import wcsph
+    from wcsph.config import load
+
+    counts = collections.Counter()
+    counting = [False]
+
+    def wrap(owner, name, key):
+        original = getattr(owner, name)
+
+        def counted(*args, **kw):
+            if counting[0]:
+                counts[key(args) if callable(key) else key] += 1
+            return original(*args, **kw)
+
+        setattr(owner, name, counted)
+
+    wrap(kernel.FakeCUDAKernel, "__call__", lambda args: "launch " + getattr(args[0].fn, "__name__", "?"))
+    wrap(devicearray.FakeCUDAArray, "copy_to_host", "device->host copy")
+    import numba.cuda as cuda
+
+    for name, key in (("device_array", "allocation"), ("to_device", "host->device copy")):
+        original = getattr(cuda, name)
+
+        def counted(*args, _o=original, _k=key, **kw):
+            if counting[0]:
+                counts[_k] += 1
+            return _o(*args, **kw)
+
+        setattr(cuda, name, counted)
+
+    case = load(a.case, [("dp", a.dp), ("output.vtk", False), ("output.progress", False)])
+    sim = wcsph.Simulation(case, backend="cuda")
+    def advance(n):
+        for _ in range(n):
+            sim.step(sim.time_step())
+
+    advance(3)
+    counting[0] = True
+    advance(a.steps)
+    counting[0] = False
+    launches = sum(v for k, v in counts.items() if k.startswith("launch"))
+    print(f"{a.case}, dp = {a.dp}, {sim.n_fluid()} fluid particles, per step over {a.steps} steps:")
+    print(f"  kernel launches: {launches / a.steps:g}")
+    for k, v in sorted(counts.items()):
+        print(f"    {k}: {v / a.steps:g}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
