@@ -72,12 +72,6 @@ def _parser():
 
 
 def _plot(directory):
-    try:
-        import matplotlib  # noqa: F401
-    except ImportError:
-        print('wcsph: error: plot needs matplotlib: pip install "matplotlib==3.11.2" (or pip install -e ".[plot]")',
-              file=sys.stderr)
-        return 2
     from .io.plots import plot_run
 
     d = Path(directory)

@@ -1,5 +1,4 @@
 """Probes: per-output-step scalar records written to ``probes.csv``."""
-import csv
 
 import numpy as np
 
@@ -20,29 +19,52 @@ def surge_front(x, dp):
 
 
 class ProbeWriter:
-    """A CSV time series, flushed row by row. ``keep_steps``: continue an existing file (a
-    restart), keeping its rows up to that step and dropping later ones."""
+    """A CSV time series, one whole line written and flushed per row. ``keep_steps``:
+    continue an existing file (a restart), keeping its whole rows up to that step: a last
+    line cut short by a kill or a full disk (no line end, or a field that is not a number)
+    and the rows after the checkpoint are dropped, and the kept rows are rewritten
+    atomically before the file is appended to."""
 
     def __init__(self, path, columns, keep_steps=None):
-        self.columns = columns
+        self.columns = list(columns)
         kept = []
         if keep_steps is not None and path.exists():
-            with open(path, newline="") as f:
-                rows = list(csv.reader(f))
-            if rows and rows[0] == list(columns):
-                step = columns.index("step")
-                kept = [r for r in rows[1:] if len(r) == len(columns) and int(r[step]) <= keep_steps]
-        self._f = open(path, "w", newline="")
-        self._w = csv.writer(self._f)
-        self._w.writerow(columns)
-        self._w.writerows(kept)
+            kept = _whole_rows(path.read_text(), self.columns, keep_steps)
+        text = "".join(",".join(r) + "\n" for r in [self.columns, *kept])
+        from .vtk import write_text
+
+        write_text(path, text)
+        self._f = open(path, "a", newline="")
 
     def write(self, row):
-        self._w.writerow([f"{row[c]:.9g}" if isinstance(row[c], float) else row[c] for c in self.columns])
+        line = ",".join(f"{row[c]:.9g}" if isinstance(row[c], float) else str(row[c]) for c in self.columns)
+        self._f.write(line + "\n")
         self._f.flush()
 
     def close(self):
         self._f.close()
+
+
+def _whole_rows(text, columns, keep_steps):
+    """The rows of a CSV series ``text`` that are whole (a line end, every field a number)
+    and at most ``keep_steps``, as lists of fields; none when the header is not ``columns``."""
+    lines = text.split("\n")
+    complete = lines[:-1]  # the last piece has no line end: empty, or a row cut short
+    if not complete or complete[0].split(",") != columns:
+        return []
+    step = columns.index("step")
+    kept = []
+    for line in complete[1:]:
+        fields = line.split(",")
+        if len(fields) != len(columns):
+            continue
+        try:
+            [float(f) for f in fields]
+        except ValueError:
+            continue
+        if int(float(fields[step])) <= keep_steps:
+            kept.append(fields)
+    return kept
 
 
 # ------------------------------------------------------------------ point probes

@@ -1,5 +1,8 @@
 """The time loop: steps to the end time with the output's callbacks between steps, stops
-cleanly on a signal or a non-physical state, and sums the run up (``run.json``).
+cleanly on a signal or a non-physical state, and sums the run up (``run.json``). The last
+step is the first that reaches the end time (steps are not shortened to land on it), so a
+finished run resumed to a later end time (``wcsph resume --end-time``) is bit for bit the
+run made straight to it.
 
 Between steps three callbacks fall due on simulated time, as TrixiParticles.jl's do: a VTK
 frame every ``output.interval`` (with a probes row unless ``probe_interval`` is set), a
@@ -89,7 +92,9 @@ def _run(sim, output, end_time, progress):
                     break
                 if state.t >= end - slack or (max_steps and state.steps >= max_steps):
                     break
-                dt = min(sim.time_step(), end - state.t)
+                # not clipped onto the end time: the run ends at the first step at or past it (as
+                # DualSPHysics' does), so a run extended past its end is the run made straight
+                dt = sim.time_step()
                 t0 = time.perf_counter()
                 sim.step(dt)
                 if writer is not None:

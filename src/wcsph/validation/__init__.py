@@ -438,13 +438,11 @@ def write_report(out, results, quick):
 
 
 def _plots(out, results):
-    try:
-        import matplotlib
+    import matplotlib
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        return [None] * len(results)
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     from ..io.vtk import atomic
 
     names = []
