@@ -66,6 +66,11 @@ def _parser():
     va.add_argument("--quick", action="store_true", help="the quick subset (a few minutes on two cores)")
     va.add_argument("--only", default=None, metavar="NAME", help="only the checks whose name contains NAME")
     va.add_argument("--output", "-o", default="runs/validation", help="report directory (default: runs/validation)")
+    su = sub.add_parser("surface", help="the free surface of every frame of a finished run, as a mesh "
+                                         "(surface_NNNN.vtu, surface.pvd)")
+    su.add_argument("directory", help="a run's output directory (with fluid.pvd and run.json)")
+    su.add_argument("--spacing", type=float, default=None,
+                    help="node spacing of the color function (default: dp/2)")
     sh = sub.add_parser("show", help="print a shipped case as TOML (to start a case of your own)")
     sh.add_argument("case", help="a shipped case name or a case file")
     return p
@@ -148,6 +153,19 @@ def _main(argv):
         return 0
     if args.command == "plot":
         return _plot(args.directory)
+    if args.command == "surface":
+        from .io.surface import from_run
+
+        try:
+            n = from_run(args.directory, args.spacing)
+        except ValueError as e:
+            print(f"wcsph: error: {e}", file=sys.stderr)
+            return 2
+        except OSError as e:
+            print(f"wcsph: output error: cannot write to {args.directory}: {e.strerror or e}", file=sys.stderr)
+            return 4
+        print(f"{n} surfaces written: open {Path(args.directory) / 'surface.pvd'} in ParaView")
+        return 0
     if args.command == "validate":
         from .validation import run_all
 

@@ -114,6 +114,8 @@ SCHEMA = {
         "vtk": ("bool", True, None),
         "surge_front": ("bool", False, None),
         "progress": ("bool", True, None),
+        "surface": ("bool", False, None),
+        "surface_spacing": ("float", 0.0, NONNEG),
     }, {}, None),
 }
 

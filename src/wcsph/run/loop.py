@@ -162,7 +162,7 @@ def _summary(sim, status, message, clock):
     summary = {
         "case": case["name"], "status": status, "message": message, "model": case["model"]["name"],
         "backend": state.backend.name, "precision": case["precision"], "dim": state.dim, "dp": state.dp,
-        "h": state.h, "speed_of_sound": state.c0, "particle_mass": state.mass,
+        "h": state.h, "kernel": case["model"]["kernel"], "speed_of_sound": state.c0, "particle_mass": state.mass,
         "n_fluid": n_fluid, "n_boundary": state.walls.n, "dropped": dropped,
         "steps": state.steps, "evaluations": state.evaluations, "end_time": state.t, "wall_time_s": wall,
         "compile_time_s": sim.setup_time + (clock.compile_time or 0.0), "io_time_s": clock.io_time,

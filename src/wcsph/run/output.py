@@ -1,4 +1,5 @@
-"""Stage: the run's output, in one directory: VTK series (``fluid.pvd``, ``case.pvd``),
+"""Stage: the run's output, in one directory: VTK series (``fluid.pvd``, ``case.pvd``, with
+``output.surface`` the free surface's ``surface.pvd``),
 ``probes.csv`` (energies, surge front, probes, body loads, the scheme's figures), ``steps.csv``
 (per-step figures of schemes that have them), ``checkpoint.npz`` and ``run.json``."""
 import json
@@ -6,7 +7,7 @@ import re
 
 import numpy as np
 
-from ..io import probes, vtk
+from ..io import probes, surface, vtk
 from .loads import body_columns, body_loads
 
 
@@ -40,6 +41,7 @@ class Output:
             # the checkpoint) would sit beside the series without being listed in it
             keep = {_frame(e[2]) for e in self.entries}
             for old in [*out.glob("fluid_[0-9]*.vtu"), *out.glob("fluid_[0-9]*.pvtu"), *out.glob("walls_[0-9]*.vtu"),
+                        *out.glob("surface_[0-9]*.vtu"),
                         *out.glob("fluid_failed*.vtu"), *out.glob("fluid_failed.pvtu"), *out.glob(".*.tmp[0-9]*")]:
                 if _frame(old.name) not in keep or old.name.startswith("."):
                     old.unlink()
@@ -91,8 +93,30 @@ class Output:
                                                                       if c], fields))
         return f"{base}.pvtu"
 
+    def _write_surface(self, name):
+        """The free surface of this frame (``io.surface``), in ``surface.pvd``; in a decomposed
+        run rank 0 gathers the particles (the surface crosses the ranks' cuts)."""
+        state, par = self.state, self.par
+        x, rho, m = state.owned_host("x", "rho", "m")
+        vol = m.astype(float) / rho.astype(float)
+        x = x.astype(float)
+        if par is not None:
+            xs, vs = par.comm.gather(x, root=0), par.comm.gather(vol, root=0)
+            if self.root:
+                x, vol = np.concatenate(xs, axis=1), np.concatenate(vs)
+        self.entries.append((state.t, 2, name))
+
+        def write():
+            spacing = self.oc["surface_spacing"] or 0.5 * state.dp
+            surface.write_surface(self.out / name, *surface.surface_mesh(x, vol, state.h, state.case["model"]["kernel"],
+                                                                          spacing))
+            vtk.write_pvd(self.out / "surface.pvd", [e for e in self.entries if e[1] == 2])
+
+        self._root(write)
+
     def write(self, failed=False, sample=True):
-        """A VTK frame (when ``vtk`` is on) and, with ``sample``, a row of probes.csv."""
+        """A VTK frame (when ``vtk`` is on), the free surface (when ``surface`` is) and, with
+        ``sample``, a row of probes.csv."""
         state = self.state
         if sample and not failed:
             self.sample()  # refreshes p from the current density first
@@ -111,13 +135,15 @@ class Output:
                     elif state.walls.n:
                         self.entries.append((state.t, 1, "walls.vtu"))
                     vtk.write_pvd(self.out / "fluid.pvd", [e for e in self.entries if e[1] == 0])
-                    vtk.write_pvd(self.out / "case.pvd", self.entries)
+                    vtk.write_pvd(self.out / "case.pvd", [e for e in self.entries if e[1] in (0, 1)])
 
                 self._root(series)
                 if not self.root and state.walls.n:  # the same list on every rank (checkpoints)
                     self.entries.append((state.t, 1, f"walls_{self.count:04d}.vtu" if self.bodies.moving
                                          else "walls.vtu"))
                 self.last_good = f"{self.out / name} (t = {state.t:.6g} s)"
+        if self.oc.get("surface") and not failed:
+            self._write_surface(f"surface_{self.count:04d}.vtu")
         if not failed:
             self.count += 1
 
