@@ -49,8 +49,9 @@ def test_restart_is_bit_for_bit(name, integrator, tmp_path):
 def test_a_finished_run_extended_is_the_run_made_straight(tmp_path):
     """A run that reached its end time and is resumed to a later one ends bit for bit where a
     run straight to the later time ends (the last step is not shortened onto the first end
-    time), with the same probes.csv rows."""
-    over = ["--dp", "0.04", "--no-progress", "--set", "output.vtk=false", "--set", "output.interval=0.01"]
+    time), with the same probes.csv rows and grid frames."""
+    over = ["--dp", "0.04", "--no-progress", "--set", "output.vtk=false", "--set", "output.interval=0.01",
+            "--set", 'grids=[{name = "g", origin = [0.1, 0.05], axes = [[0.2, 0.0]], counts = [5], interval = 0.02}]']
     assert main(["run", "dam_break_2d_bi", "-o", str(tmp_path / "ext"), "--end-time", "0.02", *over]) == 0
     first = json.loads((tmp_path / "ext" / "run.json").read_text())
     assert first["end_time"] >= 0.02
@@ -63,6 +64,10 @@ def test_a_finished_run_extended_is_the_run_made_straight(tmp_path):
         assert np.array_equal(arrays_e[k], arrays_s[k]), k
     rows = [(tmp_path / d / "probes.csv").read_text().splitlines() for d in ("ext", "straight")]
     assert rows[0] == rows[1] and len(rows[0]) == 7  # header and t = 0, 0.01, ..., 0.05
+    grids = [(tmp_path / d / "grid_g.pvd").read_text() for d in ("ext", "straight")]
+    assert grids[0] == grids[1] and grids[0].count("<DataSet") == 3  # t = 0, 0.02, 0.04
+    for k in range(3):
+        assert (tmp_path / "ext" / f"grid_g_{k:04d}.vti").read_bytes() == (tmp_path / "straight" / f"grid_g_{k:04d}.vti").read_bytes()
 
 
 def test_resume_drops_a_row_cut_short(tmp_path):

@@ -47,7 +47,11 @@ WALL_FILE = dict({"file": ("str", "", None), "mesh": ("str", "", None),
 #: pressure sensor at ``position``; water-level gauge along the vertical line from
 #: ``position`` up by ``length`` (0: to the top of the domain); ``extrapolate``: a pressure
 #: sensor carries each particle's p to the point along the momentum equation's grad p
-PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, one_of("pressure", "level")),
+#: a ``[[grids]]`` table: nodes origin + sum_a i_a axes[a] / (counts[a] - 1), i_a = 0 .. counts[a] - 1
+GRID = {"name": ("str", REQUIRED, None), "origin": ("vec", REQUIRED, None), "axes": ("axes", REQUIRED, None),
+        "counts": ("counts", REQUIRED, None), "interval": ("float", 0.0, NONNEG)}
+PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, one_of("pressure", "level", "flow")),
+         "normal": ("vec", None, None),
          "position": ("vec", REQUIRED, None), "length": ("float", 0.0, NONNEG),
          "extrapolate": ("bool", False, None)}
 
@@ -97,6 +101,7 @@ SCHEMA = {
         "max_steps": ("int", 0, NONNEG),
     }, REQUIRED, None),
     "probes": ([PROBE], [], None),
+    "grids": ([GRID], [], None),
     # a run on several MPI ranks (``mpiexec -n N wcsph run``): slabs along ``axis`` (auto: the
     # longest), cuts moved when the particles per rank (``balance = "time"``: the seconds of
     # work per rank) differ from the mean by more than ``balance_threshold``, checked every
@@ -173,6 +178,23 @@ def _leaf(src, key, kind, value, dim):
         if dim is not None and len(value) != dim:
             _fail(src, key, f"expected {dim} components (dim = {dim}), got {len(value)}")
         return value
+    if kind == "axes":
+        if not isinstance(value, list) or not 1 <= len(value) <= (dim or 3) or not all(isinstance(a, list) for a in value):
+            _fail(src, key, f"expected a list of 1 to {dim} edge vectors, e.g. [[1.0, 0.0], [0.0, 0.5]], got {value!r}")
+        axes = [_leaf(src, f"{key}[{k}]", "vec", a, dim) for k, a in enumerate(value)]
+        used = []
+        for k, a in enumerate(axes):
+            nz = [c for c, v in enumerate(a) if v != 0]
+            if len(nz) != 1 or a[nz[0]] < 0 or nz[0] in used:
+                _fail(src, f"{key}[{k}]", f"{a}: each edge must lie along a different one of +x, +y"
+                      f"{', +z' if dim == 3 else ''} (a grid ParaView reads as an image)")
+            used.append(nz[0])
+        return axes
+    if kind == "counts":
+        if not isinstance(value, list) or not all(isinstance(v, int) and not isinstance(v, bool) and v >= 2
+                                                  for v in value):
+            _fail(src, key, f"expected a list of node counts, each an integer of at least 2, got {value!r}")
+        return value
     if kind == "points":
         if not isinstance(value, list) or len(value) < 2:
             _fail(src, key, f"expected a list of at least two points, got {value!r}")
@@ -239,6 +261,15 @@ def validate(data, src="<case>"):
     for k, probe in enumerate(case["probes"]):
         if sum(p["name"] == probe["name"] for p in case["probes"]) > 1:
             _fail(src, f"probes[{k}].name", f"{probe['name']!r} is used by two probes")
+        if probe["kind"] == "flow" and (probe["normal"] is None or not any(probe["normal"])):
+            _fail(src, f"probes[{k}].normal", "a flow section needs the normal of its plane (the direction "
+                  "the flux counts as positive), e.g. normal = [1.0, 0.0]")
+    for k, g in enumerate(case["grids"]):
+        if len(g["counts"]) != len(g["axes"]):
+            _fail(src, f"grids[{k}].counts", f"one count per edge: {len(g['axes'])} edges, {len(g['counts'])} counts")
+        if sum(o["name"] == g["name"] for o in case["grids"]) > 1 or not re.fullmatch(r"[A-Za-z0-9_.-]+", g["name"]):
+            _fail(src, f"grids[{k}].name", f"{g['name']!r}: a name of letters, digits, '_', '-' or '.', used "
+                  "by one grid only (it names the grid's files)")
     ph = case["physics"]
     if ph["kappa"] > 0 and ph["speed_of_sound"] > 0:
         _fail(src, "physics.kappa", "give kappa or speed_of_sound, not both (kappa = c0^2)")

@@ -1,5 +1,6 @@
 """``wcsph plot RUN_DIR``: PNG plots of a run's probes.csv time series (energies, surge front,
-pressure sensors, level gauges, the integrator's figures), written beside it with matplotlib."""
+pressure sensors, level gauges, flow sections, body loads, the integrator's figures), written
+beside it with matplotlib."""
 import csv
 import math
 from pathlib import Path
@@ -11,6 +12,10 @@ GROUPS = {
     "energies": ("energy [J]", lambda c: c in ("kinetic_energy", "potential_energy")),
     "surge_front": ("surge front x [m]", lambda c: c == "surge_front"),
     "integrator": ("scheme figures", lambda c: c.startswith(("midpoint_", "rk_"))),
+    "volume_flux": ("volume flux [m^3/s; m^2/s in 2D]", lambda c: c.endswith("_volume_flux")),
+    "mass_flux": ("mass flux [kg/s; kg/(m s) in 2D]", lambda c: c.endswith("_mass_flux")),
+    "loads": ("body force [N] and torque [N m]", lambda c: c.endswith(("_fx", "_fy", "_fz", "_torque", "_tx", "_ty",
+                                                                       "_tz"))),
 }
 BASE = {"time", "step", "dt", "n_fluid"}
 

@@ -4,9 +4,10 @@ step is the first that reaches the end time (steps are not shortened to land on 
 finished run resumed to a later end time (``wcsph resume --end-time``) is bit for bit the
 run made straight to it.
 
-Between steps three callbacks fall due on simulated time, as TrixiParticles.jl's do: a VTK
-frame every ``output.interval`` (with a probes row unless ``probe_interval`` is set), a
-probes row every ``output.probe_interval``, a checkpoint every ``output.checkpoint_interval``.
+Between steps callbacks fall due on simulated time, as TrixiParticles.jl's do: a VTK frame
+every ``output.interval`` (with a probes row unless ``probe_interval`` is set), a probes row
+every ``output.probe_interval``, a frame of each ``[[grids]]`` table every its ``interval``, a
+checkpoint every ``output.checkpoint_interval``.
 """
 import time
 from pathlib import Path
@@ -60,8 +61,15 @@ def _run(sim, output, end_time, progress):
     frames = Every(oc["interval"] or end / 20, resumed.get("next_out", state.t),
                    lambda: writer.write(sample=not probe_every))
     rows = Every(probe_every, resumed.get("next_probe", state.t), lambda: writer.sample())
-    checkpoints = Every(oc["checkpoint_interval"], state.t + oc["checkpoint_interval"],
-                        lambda: writer.checkpoint(frames.next, rows.next))
+    # each [[grids]] table at its own rate (0: with the frames)
+    starts = resumed.get("next_grids", [])
+    grids = [Every(g["interval"] or frames.interval, starts[k] if k < len(starts) else state.t,
+                   lambda k=k: writer.write_grid(k)) for k, g in enumerate(case["grids"])] if writer else []
+
+    def checkpoint():
+        writer.checkpoint(frames.next, rows.next, [g.next for g in grids])
+
+    checkpoints = Every(oc["checkpoint_interval"], state.t + oc["checkpoint_interval"], checkpoint)
     slack = 1e-9 * end  # round-off in the summed time; not worth a step of its own
     clock = _Clock()
     status, message = "completed", ""
@@ -76,6 +84,9 @@ def _run(sim, output, end_time, progress):
                         written = True
                     if rows.due(state.t, slack):
                         clock.io(rows)
+                    for g in grids:
+                        if g.due(state.t, slack):
+                            clock.io(g)
                     if checkpoints.due(state.t, slack):
                         checkpoints()
                 stopping = stop.signal is not None
@@ -107,7 +118,7 @@ def _run(sim, output, end_time, progress):
             writer.write(failed=True)
             message += f"; last good output: {writer.last_good}"
     if writer is not None and status != "failed":
-        writer.checkpoint(frames.next, rows.next)  # a clean stop or the end: the run can be continued
+        checkpoint()  # a clean stop or the end: the run can be continued
     summary = _summary(sim, status, message, clock)
     if writer is not None:
         writer.close(summary)

@@ -8,6 +8,7 @@ import re
 import numpy as np
 
 from ..io import probes, surface, vtk
+from ..io.grids import GridSampler
 from .loads import body_columns, body_loads
 
 
@@ -26,6 +27,10 @@ class Output:
         self.entries = [tuple(e) for e in resumed.get("entries", [])]
         self.count = resumed.get("count", 0)
         self.iter_max = resumed.get("iter_max", 0)
+        self.grids = [GridSampler(state, g, f"grids[{k}]") for k, g in enumerate(state.case["grids"])]
+        # per grid: its frames [(t, part, file)] and their count
+        self.grid_series = {g.name: [tuple(e) for e in resumed.get("grid_series", {}).get(g.name, [])]
+                            for g in self.grids}
         self.last_good = "(none written)"
         cols = ["time", "step", "dt", "n_fluid", "kinetic_energy", "potential_energy"]
         if oc["surge_front"]:
@@ -39,9 +44,9 @@ class Output:
             out.mkdir(parents=True, exist_ok=True)
             # frames of an earlier run in the same directory (or, on a restart, written after
             # the checkpoint) would sit beside the series without being listed in it
-            keep = {_frame(e[2]) for e in self.entries}
+            keep = {_frame(e[2]) for e in self.entries} | {_frame(e[2]) for v in self.grid_series.values() for e in v}
             for old in [*out.glob("fluid_[0-9]*.vtu"), *out.glob("fluid_[0-9]*.pvtu"), *out.glob("walls_[0-9]*.vtu"),
-                        *out.glob("surface_[0-9]*.vtu"),
+                        *out.glob("surface_[0-9]*.vtu"), *out.glob("grid_*_[0-9]*.vti"),
                         *out.glob("fluid_failed*.vtu"), *out.glob("fluid_failed.pvtu"), *out.glob(".*.tmp[0-9]*")]:
                 if _frame(old.name) not in keep or old.name.startswith("."):
                     old.unlink()
@@ -114,6 +119,20 @@ class Output:
 
         self._root(write)
 
+    def write_grid(self, k):
+        """A frame of grid k (``[[grids]]``): ``grid_NAME_NNNN.vti`` and ``grid_NAME.pvd``."""
+        g = self.grids[k]
+        fields = g.fields()  # on every rank (the ranks' nodes are summed)
+        series = self.grid_series[g.name]
+        name = f"grid_{g.name}_{len(series):04d}.vti"
+        series.append((self.state.t, 0, name))
+
+        def write():
+            g.write(self.out / name, fields)
+            vtk.write_pvd(self.out / f"grid_{g.name}.pvd", series)
+
+        self._root(write)
+
     def write(self, failed=False, sample=True):
         """A VTK frame (when ``vtk`` is on), the free surface (when ``surface`` is) and, with
         ``sample``, a row of probes.csv."""
@@ -180,11 +199,11 @@ class Output:
         self.iter_max = max(self.iter_max, stats.get("midpoint_iterations", 0))
         self._root(lambda: self.steps_log.write(dict(stats, step=state.steps, time=state.t, dt=float(state.P.dt))))
 
-    def checkpoint(self, next_out, next_probe):
+    def checkpoint(self, next_out, next_probe, next_grids=()):
         """``checkpoint.npz``: the state, and where the output series stands."""
         self._agreed(lambda: self.save_checkpoint(self.out / "checkpoint.npz", {
             "entries": self.entries, "count": self.count, "iter_max": self.iter_max, "next_out": next_out,
-            "next_probe": next_probe}))
+            "next_probe": next_probe, "grid_series": self.grid_series, "next_grids": list(next_grids)}))
 
     def close(self, summary):
         def finish():
