@@ -11,6 +11,7 @@ import pytest
 
 from wcsph.cli import main
 from wcsph.io.surface import surface_mesh
+from wcsph.io.vtk import read_image
 
 
 def _series(path):
@@ -78,22 +79,6 @@ def test_plots_are_in_the_base_install(tmp_path):
     assert json.loads((out / "run.json").read_text())["kernel"] == "wendland"
 
 
-def read_vti(path):
-    """(origin, spacing, counts, {name: (n, components)}) of a .vti of ``io.vtk.write_image``,
-    read from its XML and base64 as ParaView does."""
-    import base64
-
-    img = ET.parse(path).getroot().find("ImageData")
-    ext = [int(v) for v in img.get("WholeExtent").split()]
-    out = {}
-    for a in img.iter("DataArray"):
-        raw = base64.b64decode(a.text)
-        n = int(np.frombuffer(raw[:4], np.uint32)[0])
-        out[a.get("Name")] = np.frombuffer(raw[4:4 + n], np.float32).reshape(-1, int(a.get("NumberOfComponents")))
-    return ([float(v) for v in img.get("Origin").split()], [float(v) for v in img.get("Spacing").split()],
-            [ext[1] - ext[0] + 1, ext[3] - ext[2] + 1, ext[5] - ext[4] + 1], out)
-
-
 def test_grid_through_still_water_reads_the_hydrostatic_pressure(tmp_path):
     """hydrostatic_2d half a second after its gravity ramp (1 s): on a vertical line of nodes
     through the tank, p is within 1 % of rho0 g (H - z) from the floor's kernel support up to
@@ -111,7 +96,11 @@ def test_grid_through_still_water_reads_the_hydrostatic_pressure(tmp_path):
               overrides=[("time.end", 1.5), ("output.vtk", False), ("output.interval", 0.75), ("grids", grids)])
     assert [t for t, _ in _series(out / "grid_line.pvd")] == pytest.approx([0.0, 0.75, 1.5], abs=1e-3)
     assert len(_series(out / "grid_plane.pvd")) == 4
-    origin, spacing, counts, f = read_vti(out / _series(out / "grid_line.pvd")[-1][1])
+    last = out / _series(out / "grid_line.pvd")[-1][1]
+    img = ET.parse(last).getroot()  # as VTK reads it: an image, a UInt32 byte count before each array
+    assert img.get("type") == "ImageData" and img.get("header_type") == "UInt32"
+    assert img.find("ImageData").get("WholeExtent") == "0 0 0 60 0 0"
+    origin, spacing, counts, f = read_image(last)
     assert counts == [1, 61, 1] and spacing[1] == pytest.approx(0.01) and origin[:2] == [0.5, 0.0]
     z = 0.01 * np.arange(61)
     w, p = f["kernel_sum"][:, 0], f["p"][:, 0]
@@ -123,7 +112,7 @@ def test_grid_through_still_water_reads_the_hydrostatic_pressure(tmp_path):
     ref = 1000.0 * 9.81 * (H - z[sel])
     assert sel.sum() > 20 and np.abs(p[sel] / ref - 1).max() < 0.01
     assert (p[z > H + support] == 0).all() and (w[z > H + support] < 0.1).all()
-    _, _, counts, f = read_vti(out / "grid_plane_0003.vti")
+    _, _, counts, f = read_image(out / "grid_plane_0003.vti")
     assert counts == [21, 15, 1] and f["v"].shape == (21 * 15, 3)
 
 

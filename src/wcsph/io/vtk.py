@@ -110,3 +110,20 @@ def write_image(path, origin, spacing, counts, point_data):
         arr.text = base64.b64encode(np.uint32(len(raw)).tobytes() + raw).decode("ascii")
     with atomic(path) as tmp:
         ET.ElementTree(root).write(tmp, xml_declaration=True, encoding="utf-8")
+
+
+def read_image(path):
+    """(origin, spacing, counts, {name: (n, components) array}) of a .vti of ``write_image``."""
+    import base64
+
+    img = ET.parse(path).getroot().find("ImageData")
+    ext = [int(v) for v in img.get("WholeExtent").split()]
+    types = {v: k for k, v in _VTK_TYPES.items()}
+    out = {}
+    for a in img.iter("DataArray"):
+        raw = base64.b64decode(a.text)
+        n = int(np.frombuffer(raw[:4], "<u4")[0])
+        data = np.frombuffer(raw[4:4 + n], np.dtype(types[a.get("type")]).newbyteorder("<"))
+        out[a.get("Name")] = data.reshape(-1, int(a.get("NumberOfComponents")))
+    return ([float(v) for v in img.get("Origin").split()], [float(v) for v in img.get("Spacing").split()],
+            [ext[1] - ext[0] + 1, ext[3] - ext[2] + 1, ext[5] - ext[4] + 1], out)
