@@ -113,11 +113,14 @@ def test_resume_command_and_refusals(tmp_path, capsys):
 
 @pytest.mark.parametrize("name,extra", [
     ("poiseuille_open_2d", [("dp", 0.05), ("time.end", 0.15)]),
-    ("moving_square_2d", [("dp", 0.1), ("model.shifting", "None"), ("time.end", 0.1)])])
+    ("moving_square_2d", [("dp", 0.1), ("model.shifting", "None"), ("time.end", 0.1)]),
+    ("hydrostatic_2d_bi", [("dp", 0.05), ("time.end", 0.05),
+                           ("obstacle", [{"name": "box", "min": [0.8, 0.3], "max": [1.2, 0.7],
+                                         "floating": {"density": 700.0}}])])])
 def test_restart_with_open_boundaries_and_moving_walls_is_bit_for_bit(name, extra, tmp_path):
     """Buffers that create and remove particles (their counters carried in the checkpoint),
-    and walls placed from a motion table: stopped at step 7 and resumed, the same state as
-    the run that did not stop."""
+    walls placed from a motion table, a floating body (its state carried): stopped at step 7
+    and resumed, the same state as the run that did not stop."""
     def case(*more):
         return load(name, extra + [("output.vtk", False), ("output.interval", 0.05), *more])
 

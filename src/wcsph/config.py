@@ -13,6 +13,7 @@ from pathlib import Path
 
 from . import integrators, plugins
 from .errors import CaseError
+from .floating import FLOATING
 from .motion import MOTION
 from .open_boundary import OPEN_BOUNDARY
 from .open_boundary import check as check_open_boundaries
@@ -35,8 +36,9 @@ BLOCK = {"min": ("vec", REQUIRED, None), "max": ("vec", REQUIRED, None)}
 FLUID_BLOCK = {"min": ("vec", None, None), "max": ("vec", None, None), "file": ("str", "", None),
                "surface": ("str", "", None), "velocity": ("field", None, None), "pressure": ("formula", None, None)}
 #: what every wall source (tank, obstacle, polygon) may add: a body name (its force and torque
-#: go to probes.csv) and a prescribed motion (``motion.MOTION``)
-BODY = {"name": ("str", "", None), "motion": (MOTION, None, None)}
+#: go to probes.csv) and a prescribed motion (``motion.MOTION``) or a ``floating`` table (a
+#: rigid body moved by the fluid and gravity, ``floating.FLOATING``)
+BODY = {"name": ("str", "", None), "motion": (MOTION, None, None), "floating": (FLOATING, None, None)}
 #: a 2D wall along a polyline; the fluid lies on the left of the direction of travel
 POLYGON = dict({"points": ("points", REQUIRED, None), "closed": ("bool", False, None)}, **BODY)
 #: walls from a file: a point ``file`` (boundary elements need the normals and sizes, wall
@@ -301,6 +303,26 @@ def validate(data, src="<case>"):
             if all(h - l > 1e-9 for l, h in zip(lo, hi)):
                 _fail(src, f"fluid[{b}]", f"overlaps fluid[{a}] (in {_num(lo)} .. {_num(hi)}); particles "
                       "placed twice start on top of each other")
+    for key, b in _wall_sources(case):
+        fl = b.get("floating")
+        if fl is None:
+            continue
+        if key == "tank":
+            _fail(src, "tank.floating", "the tank cannot float; make the body an obstacle, a polygon or a wall mesh")
+        if b["motion"] is not None:
+            _fail(src, f"{key}.floating", "a body is either floating or moved by its motion, not both")
+        if not b["name"]:
+            _fail(src, f"{key}.name", "a floating body needs a name (its position, velocity and loads go to "
+                  "probes.csv under it)")
+        if (fl["density"] > 0) == (fl["mass"] > 0) or fl["density"] < 0 or fl["mass"] < 0:
+            _fail(src, f"{key}.floating", "give the body's density or its mass (> 0), one of the two")
+        if fl["release"] < 0:
+            _fail(src, f"{key}.floating.release", "the time the body is released, >= 0")
+        if fl["inertia"] < 0 or (fl["inertia"] > 0 and dim == 3):
+            _fail(src, f"{key}.floating.inertia", "a 2D body's moment of inertia about its centre (> 0); a 3D "
+                  "body's inertia tensor comes from its geometry")
+        if key.startswith("polygon") and not b["closed"]:
+            _fail(src, f"{key}.closed", "a floating polygon must be closed (its area gives its mass)")
     names = [(key, b["name"]) for key, b in _wall_sources(case) if b["name"]]
     for k, (key, name) in enumerate(names):
         if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):

@@ -119,6 +119,16 @@ class Motion:
         acc = self.accels[int(np.searchsorted(mid, t, side="right")) - 1]
         return acc[: self.dim], float(acc[-1])
 
+    def pose(self, t):
+        """(d, R, u, omega, du, alpha) at time t: displacement, rotation matrix, velocity,
+        angular velocity and the accelerations (omega and alpha: numbers in 2D, vectors along
+        ``axis`` in 3D), the interface a floating body (``floating``) shares."""
+        d, theta, u, omega = self.state(t)
+        du, alpha = self.acceleration(t)
+        if self.dim == 3:
+            omega, alpha = self.axis * omega, self.axis * alpha
+        return d, self.rotation(theta), u, omega, du, alpha
+
     def rotation(self, theta):
         """The rotation matrix R(theta) (dim x dim)."""
         c, s = math.cos(theta), math.sin(theta)
@@ -140,20 +150,25 @@ def _has_header(path):
 
 
 class Bodies:
-    """The walls' rigid bodies: their names, motions and centres, and the placement of the
-    wall points of the moving ones at time t (on the host; walls are few beside the fluid)."""
+    """The walls' rigid bodies: their names, motions (prescribed, or a floating body's own
+    state) and centres, and the placement of the wall points of the moving ones at time t (on
+    the host; walls are few beside the fluid)."""
 
-    def __init__(self, specs, dim, x0, n0, body, source_dir="."):
+    def __init__(self, specs, dim, x0, n0, body, source_dir=".", floating=None):
         """``specs``: one (name, motion table or None, key) per body; ``x0``, ``n0``: the
         wall points and normals (n0 None for wall particles) at t = 0; ``body``: each
-        point's body index."""
+        point's body index; ``floating``: {body index: ``floating.FloatingBody``}."""
         self.dim = dim
         self.names = [s[0] for s in specs]
-        self.motions = [Motion(m, dim, source_dir, key) if m is not None else None for _, m, key in specs]
+        self.floating = dict(floating or {})
+        self.motions = [self.floating[b] if b in self.floating else Motion(m, dim, source_dir, key) if m is not None
+                        else None for b, (_, m, key) in enumerate(specs)]
         self.centres = []
         for b, (_, m, _) in enumerate(specs):
             pts = x0[:, body == b]
-            if m is not None and m["centre"] is not None:
+            if b in self.floating:
+                self.centres.append(self.floating[b].c0)
+            elif m is not None and m["centre"] is not None:
                 self.centres.append(np.asarray(m["centre"], dtype=float))
             else:
                 self.centres.append(pts.mean(axis=1) if pts.shape[1] else np.zeros(dim))
@@ -168,21 +183,20 @@ class Bodies:
                 continue
             sel = body == b
             c = self.centres[b][:, None]
-            d, theta, u, omega = mo.state(t)
-            du, alpha = mo.acceleration(t)
-            R = mo.rotation(theta)
+            d, R, u, omega, du, alpha = mo.pose(t)
             r = R @ (x0[:, sel] - c)
             x[:, sel] = c + d[:, None] + r
             if n is not None:
                 n[:, sel] = R @ n0[:, sel]
             if self.dim == 2:
                 k_r = np.array([-r[1], r[0]])  # e_z x r
+                v[:, sel] = u[:, None] + omega * k_r
+                a[:, sel] = du[:, None] + alpha * k_r - omega * omega * r  # omega x (omega x r) = -omega^2 r
             else:
-                k_r = np.cross(mo.axis, r.T).T
-            v[:, sel] = u[:, None] + omega * k_r
-            # tangential omega' x r and centripetal omega x (omega x r) = -omega^2 r_perp
-            r_perp = r if self.dim == 2 else r - np.outer(mo.axis, mo.axis @ r)
-            a[:, sel] = du[:, None] + alpha * k_r - omega * omega * r_perp
+                w = np.asarray(omega, dtype=float)
+                wr = np.cross(w, r.T).T
+                v[:, sel] = u[:, None] + wr
+                a[:, sel] = du[:, None] + np.cross(alpha, r.T).T + np.cross(w, wr.T).T
         return x, n, v, a
 
     def reference(self, b, t):
@@ -190,4 +204,12 @@ class Bodies:
         mo = self.motions[b]
         if mo is None:
             return self.centres[b]
-        return self.centres[b] + mo.state(t)[0]
+        return self.centres[b] + mo.pose(t)[0]
+
+    def carried_state(self):
+        """The floating bodies' states (for checkpoints)."""
+        return {str(b): f.carried_state() for b, f in self.floating.items()}
+
+    def restore(self, state):
+        for b, f in self.floating.items():
+            f.restore(state[str(b)])

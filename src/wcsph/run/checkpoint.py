@@ -21,11 +21,11 @@ def case_fingerprint(case):
     return hashlib.sha256(json.dumps(keep, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def save(path, state, integrator, open_boundaries, output_state=None):
+def save(path, state, integrator, open_boundaries, output_state=None, bodies=None):
     """The checkpoint at ``path`` (written atomically): every per-particle array of the fluid,
     the time, the step count, the speeds the next time step is taken from, the integrator's
     carried scalars (Verlet's step count, RK45's next step, the midpoint's primed guess), the
-    open boundaries' and the output series' state. In a decomposed run one file of every
+    open boundaries', the floating bodies' and the output series' state. In a decomposed run one file of every
     rank's own particles, written by rank 0: it restarts on any number of ranks."""
     names = [k for k in state.fluid.per_particle() if k != "owned"]
     arrays = dict(zip(names, state.owned_host(*names)))
@@ -41,7 +41,8 @@ def save(path, state, integrator, open_boundaries, output_state=None):
             "fingerprint": case_fingerprint(case), "t": state.t, "steps": state.steps,
             "evaluations": state.evaluations, "dropped": dropped, "vmax": state.vmax, "amax": state.amax,
             "n": int(arrays["x"].shape[1]), "integrator": integrator.carried_state(), "output": output_state,
-            "open_boundary": open_boundaries.carried_state() if open_boundaries is not None else None}
+            "open_boundary": open_boundaries.carried_state() if open_boundaries is not None else None,
+            "bodies": bodies.carried_state() if bodies is not None else {}}
     arrays = {f"fluid.{k}": a for k, a in arrays.items()}
     with vtk.atomic(path) as tmp:
         with open(tmp, "wb") as f:
@@ -68,7 +69,7 @@ def read(path):
     return meta, arrays
 
 
-def restore(state, integrator, open_boundaries, meta, arrays, source="checkpoint"):
+def restore(state, integrator, open_boundaries, meta, arrays, source="checkpoint", bodies=None):
     """Continue from a checkpoint of the same case (``time.end``, ``time.max_steps`` and
     ``[output]`` may differ): the fluid, the scalars, the integrator's and the open
     boundaries' carried state. Returns the output series' state."""
@@ -97,4 +98,6 @@ def restore(state, integrator, open_boundaries, meta, arrays, source="checkpoint
     integrator.restore(meta["integrator"])
     if open_boundaries is not None:
         open_boundaries.restore(meta["open_boundary"])
+    if bodies is not None:
+        bodies.restore(meta.get("bodies", {}))
     return meta["output"]

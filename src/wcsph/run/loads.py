@@ -7,10 +7,12 @@ from ..particles import ParticleSet
 def body_columns(bodies, dim):
     """The probes.csv columns of the named bodies' loads."""
     cols = []
-    for name in bodies.names:
+    for b, name in enumerate(bodies.names):
         if name:
             cols += [f"{name}_f{c}" for c in "xyz"[:dim]]
             cols += [f"{name}_torque"] if dim == 2 else [f"{name}_t{c}" for c in "xyz"]
+            if b in bodies.floating:  # its state: centre, velocity, orientation, angular velocity
+                cols += bodies.floating[b].columns(name)
     return cols
 
 
@@ -28,14 +30,8 @@ def body_loads(state, bodies):
     named = [b for b, name in enumerate(bodies.names) if name]
     if not named:
         return {}
-    if state.model.boundary == "elements":
-        loads = _element_loads(state, bodies, named)
-    else:
-        loads = _particle_loads(state, bodies, named)
-    out, dim, par = {}, state.dim, state.par
-    for b, (force, torque) in zip(named, loads):
-        if par is not None:
-            force, torque = np.split(par.sum(np.concatenate([force, np.ravel(torque)])), [dim])
+    out, dim = {}, state.dim
+    for b, (force, torque) in zip(named, loads(state, bodies, named)):
         name = bodies.names[b]
         for a, c in enumerate("xyz"[:dim]):
             out[f"{name}_f{c}"] = float(force[a])
@@ -44,6 +40,21 @@ def body_loads(state, bodies):
         else:
             for a, c in enumerate("xyz"):
                 out[f"{name}_t{c}"] = float(torque[a])
+        if b in bodies.floating:
+            out.update(bodies.floating[b].values(name))
+    return out
+
+
+def loads(state, bodies, which):
+    """(force, torque about the body's centre) of the fluid on each body of ``which`` (body
+    indices), totals over the ranks of a decomposed run (see ``body_loads``)."""
+    if state.model.boundary == "elements":
+        out = _element_loads(state, bodies, which)
+    else:
+        out = _particle_loads(state, bodies, which)
+    par, dim = state.par, state.dim
+    if par is not None:
+        out = [tuple(np.split(par.sum(np.concatenate([f, np.ravel(t)])), [dim])) for f, t in out]
     return out
 
 

@@ -73,7 +73,8 @@ def build(case, backend, comm):
         fluid["kind"] = be.to_device(kind)  # 0 fluid, 1 + k the buffer of open_boundary[k]
 
     body = wall0.pop("body")
-    bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent)
+    bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,
+                    _floating_bodies(case))
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
     walls.add("v", "vector", dtype, be)
     walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)
@@ -153,6 +154,23 @@ def _integrator(case, be, model, warnings):
                         f"{scheme} ({stable:g}, benchmarks/integrators.py); leave time.cfl out for its "
                         f"default ({integrator.default_cfl():g})")
     return integrator, cfl
+
+
+def _floating_bodies(case):
+    """{body index: FloatingBody} of the case's floating wall sources."""
+    from ..config import _wall_sources
+    from ..floating import body_of
+    from ..io.readers import read_surface
+
+    out = {}
+    for b, (key, table) in enumerate(_wall_sources(case)):
+        if table.get("floating") is None:
+            continue
+        mesh = None
+        if table.get("mesh"):
+            mesh = read_surface(Path(case["_source"]).parent / table["mesh"], case["dim"])
+        out[b] = body_of(key, table, case["dim"], mesh)
+    return out
 
 
 def _decomposition(case, comm, grid, be, occupied, opened):

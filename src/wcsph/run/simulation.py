@@ -9,8 +9,10 @@ A step is the list ``stages``, each a callable of the run state (``run.state.Sta
 5. ``AfterStep``: the model's after-step passes;
 6. ``InflowAfter``: buffers prescribed, particles enter and leave;
 7. ``Advance``: periodic wrap, time and step count;
-8. ``MoveWalls``: moving walls to the new time;
-9. ``Check``: speeds for the next step, and the stop on a non-physical state.
+8. ``MoveBodies``: the floating bodies' step under the fluid's loads and gravity (cases with
+   floating bodies);
+9. ``MoveWalls``: moving walls to the new time;
+10. ``Check``: speeds for the next step, and the stop on a non-physical state.
 
 Between steps the time loop (``run.loop``) writes frames, probes and checkpoints and
 watches for signals.
@@ -25,6 +27,7 @@ from . import checkpoint, loop, setup
 from .advance import Advance
 from .after_step import AfterStep
 from .check import Check
+from .floating import MoveBodies
 from .inflow import InflowAfter, InflowBefore
 from .integrate import Integrate
 from .loads import body_loads
@@ -39,8 +42,9 @@ def stages(integrator, bodies, open_boundaries):
     integrate = Integrate(integrator)
     inflow = [InflowBefore(open_boundaries)] if open_boundaries is not None else []
     outflow = [InflowAfter(open_boundaries)] if open_boundaries is not None else []
-    return [Sort(), integrate.parameters, *inflow, integrate, AfterStep(), *outflow, Advance(), MoveWalls(bodies),
-            Check()]
+    floating = [MoveBodies(bodies)] if bodies.floating else []
+    return [Sort(), integrate.parameters, *inflow, integrate, AfterStep(), *outflow, Advance(), *floating,
+            MoveWalls(bodies), Check()]
 
 
 class Simulation:
@@ -93,13 +97,14 @@ class Simulation:
         return body_loads(self.state, self.bodies)
 
     def save_checkpoint(self, path, output_state=None):
-        checkpoint.save(path, self.state, self.integrator, self.open, output_state)
+        checkpoint.save(path, self.state, self.integrator, self.open, output_state, self.bodies)
 
     read_checkpoint = staticmethod(checkpoint.read)
 
     def restore(self, meta, arrays, source="checkpoint"):
         """Continue from a checkpoint of the same case (``run.checkpoint``)."""
-        self.resumed_output = checkpoint.restore(self.state, self.integrator, self.open, meta, arrays, source)
+        self.resumed_output = checkpoint.restore(self.state, self.integrator, self.open, meta, arrays, source,
+                                                 self.bodies)
         MoveWalls(self.bodies)(self.state)
 
     def run(self, output=None, end_time=None, progress=None):
