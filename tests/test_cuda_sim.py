@@ -31,7 +31,7 @@ print(json.dumps({"n": [c[4], g[4]], "steps": [c[5], g[5]],
 #: simulator cases run with ``-m validation`` only: 10-35 s each cold, and the default suite
 #: must stay within ten minutes on a cold two-core machine
 SLOW = {"classic-3d", "bi-2d-midpoint", "bi-2d-rk45", "classic-2d-verlet", "bi-2d-corrections",
-        "classic-2d-corrections", "bi-2d-open"}
+        "classic-2d-corrections", "bi-2d-open", "bi-2d-floating"}
 
 
 CASES = [
@@ -48,6 +48,8 @@ CASES = [
         "model.density": "continuity", "model.DiffusiveTerm": "MolteniDiffusiveTerm", "model.cspm_density_interval": 2}),
     ("bi-2d-periodic-moving", "couette_2d", 5e-5, {"time.dt": 1e-3}),
     ("bi-2d-open", "poiseuille_open_2d", 0.05, {"time.dt": 0.004, "time.max_steps": 8}),
+    ("bi-2d-floating", "hydrostatic_2d_bi", 0.1, {"obstacle": [{"name": "box", "min": [0.8, 0.3], "max": [1.2, 0.7],
+                                                               "floating": {"density": 700.0}}]}),
 ]
 
 
@@ -60,7 +62,7 @@ def test_cuda_kernels_match_cpu_in_simulator(name, dp, extra):
     and Verlet; the correction toolbox (CSPM with its density re-initialisation, DPC,
     shifting, XSPH on the positions, Monaghan's Pi) in both models; the periodic walk with a
     moving wall (Couette) and the open-boundary buffers, whose particles enter the fluid and are
-    created within the run."""
+    created within the run; a floating body (its loads read back from the device each step)."""
     env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
     r = subprocess.run([sys.executable, "-c", SCRIPT, name, str(dp), json.dumps(extra)], capture_output=True, text=True,
                        env=env, timeout=600)

@@ -328,6 +328,31 @@ def moving_square(quick, overrides=()):
                   [("SPH", t, cd, "sim"), ("reference", rt, rcd, "ref")], ("t [s]", "C_D"))
 
 
+def floating_box(quick):
+    """``floating_box_2d``: a box of half water's density released after 1 s of settling;
+    over the next 5 s its centre stays within dp/2 of the water level (Archimedes: half its
+    height immersed) on average, and it drifts less than dp sideways."""
+    import csv
+    import tempfile
+
+    sim = _sim("floating_box_2d", [("output.vtk", False), ("output.progress", False)])
+    with tempfile.TemporaryDirectory() as tmp:
+        sim.run(tmp, progress=False)
+        with open(Path(tmp) / "probes.csv", newline="") as f:
+            rows = [r for r in csv.DictReader(f) if float(r["time"]) >= 1.0]
+    t = np.array([float(r["time"]) for r in rows])
+    y, level, x = (np.array([float(r[k]) for r in rows]) for k in ("box_y", "level", "box_x"))
+    draft = float(np.mean(y - level))  # the centre above the level: 0 at Archimedes' draft
+    drift = float(np.abs(x - x[0]).max())
+    dp = sim.dp
+    err = max(abs(draft) / (0.5 * dp), drift / dp)
+    return Result("Floating box at Archimedes' draft, WCSPH-BI", "largest of mean |centre - level| / (dp/2) and "
+                  "the sideways drift / dp over 1-6 s", "Archimedes: the centre at the water level", err, 1.0,
+                  bool(err < 1.0), f"mean centre - level {draft * 1e3:+.1f} mm, largest {np.abs(y - level).max() * 1e3:.1f} mm; "
+                  f"drift {drift * 1e3:.1f} mm; dp = {dp * 1e3:g} mm",
+                  [("centre - level", t, y - level, "sim"), ("Archimedes", t, 0 * t, "ref")], ("t [s]", "y_c - level [m]"))
+
+
 #: the resolution of the Lobovsky check: H / dp = 150
 LOBOVSKY_DP = 0.002
 
@@ -385,6 +410,7 @@ CHECKS = [
     (spheric2_classic, False),
     (moving_square, False),
     (lobovsky, False),
+    (floating_box, False),
     (convergence_poiseuille, False),
     (convergence_taylor_green, False),
 ]
