@@ -91,8 +91,10 @@ def test_a_box_floats_at_archimedes_draft(tmp_path):
                     "floating": {"density": 500.0, "mass": 3.0}}]}, "obstacle[0].floating"),
     ({"obstacle": [{"name": "b", "min": [0.4, 0.6], "max": [0.6, 0.8], "floating": {"density": 500.0},
                     "motion": {"kind": "velocity", "velocity": [1.0, 0.0]}}]}, "obstacle[0].floating"),
-    ({"polygon": [{"name": "b", "points": [[0.4, 0.6], [0.6, 0.6], [0.5, 0.8]], "floating": {"mass": 2.0}}]},
+    ({"polygon": [{"name": "b", "points": [[0.4, 0.6], [0.5, 0.8], [0.6, 0.6]], "floating": {"mass": 2.0}}]},
      "polygon[0].closed"),
+    ({"polygon": [{"name": "b", "points": [[0.4, 0.6], [0.6, 0.6], [0.5, 0.8]], "closed": True,
+                   "floating": {"mass": 2.0}}]}, "polygon[0].points"),
 ])
 def test_floating_errors_name_the_key(change, key):
     base = {"dim": 2, "dp": 0.1, "time": {"end": 0.1}, "fluid": [{"min": [0.0, 0.0], "max": [1.0, 0.5]}],

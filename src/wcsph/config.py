@@ -323,6 +323,12 @@ def validate(data, src="<case>"):
                   "body's inertia tensor comes from its geometry")
         if key.startswith("polygon") and not b["closed"]:
             _fail(src, f"{key}.closed", "a floating polygon must be closed (its area gives its mass)")
+        if key.startswith("polygon"):
+            q = b["points"]
+            twice_area = sum(q[k][0] * q[(k + 1) % len(q)][1] - q[(k + 1) % len(q)][0] * q[k][1] for k in range(len(q)))
+            if twice_area > 0:
+                _fail(src, f"{key}.points", "a floating polygon's points must run clockwise: the fluid is on "
+                      "the left of a polygon wall, and a body's fluid is outside it")
     names = [(key, b["name"]) for key, b in _wall_sources(case) if b["name"]]
     for k, (key, name) in enumerate(names):
         if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):

@@ -104,6 +104,20 @@ def tank_particles(tank, dp, layers, periodic=(False, False, False)):
     return pts[:, ~_inside(pts, interior_lo, interior_hi)]
 
 
+def _in_polygon(x, pts, margin):
+    """Points of x (2, N) inside the closed polygon ``pts`` (M, 2) or within ``margin`` of its
+    outline (even-odd rule, and the distance to each side)."""
+    a, b = pts, np.roll(pts, -1, axis=0)
+    px, py = x[0][:, None], x[1][:, None]
+    crosses = ((a[:, 1] > py) != (b[:, 1] > py)) & (
+        px < a[:, 0] + (py - a[:, 1]) * (b[:, 0] - a[:, 0]) / np.where(b[:, 1] != a[:, 1], b[:, 1] - a[:, 1], 1.0))
+    inside = crosses.sum(axis=1) % 2 == 1
+    ab = b - a
+    t = np.clip(((px - a[:, 0]) * ab[:, 0] + (py - a[:, 1]) * ab[:, 1]) / np.maximum((ab ** 2).sum(axis=1), 1e-300), 0, 1)
+    d2 = (px - a[:, 0] - t * ab[:, 0]) ** 2 + (py - a[:, 1] - t * ab[:, 1]) ** 2
+    return inside | (d2.min(axis=1) < margin * margin)
+
+
 def obstacle_particles(box, dp, layers):
     """A solid box, sampled ``layers`` deep from its faces (its core is never reached)."""
     lo = np.asarray(box["min"], dtype=float)
@@ -355,6 +369,9 @@ def build(case):
             raise CaseError(f"{src}: fluid[{k}]: block is thinner than dp = {dp}, it holds no particle")
         for box in case["obstacle"]:  # obstacles displace the fluid they overlap
             x = x[:, ~_inside(x, np.asarray(box["min"]) - 0.5 * dp, np.asarray(box["max"]) + 0.5 * dp, 1e-6 * dp)]
+        for poly in case["polygon"]:  # and closed polygons (a body's outline)
+            if poly["closed"]:
+                x = x[:, ~_in_polygon(x, np.asarray(poly["points"], dtype=float), 0.5 * dp * (1 - 1e-6))]
         xs.append(x)
         vs.append(np.stack([evaluate(str(c), x) for c in (block["velocity"] or [0.0] * dim)]))
         tops.append(np.full(x.shape[1], block["max"][-1]))

@@ -353,6 +353,34 @@ def floating_box(quick):
                   [("centre - level", t, y - level, "sim"), ("Archimedes", t, 0 * t, "ref")], ("t [s]", "y_c - level [m]"))
 
 
+def cylinder_entry(quick):
+    """Fekken (2004), ``cylinder_entry_2d`` (R / dp = 20): the cylinder's displacement against
+    T = (t - release) sqrt(g/R) for T <= 8, the largest difference as a fraction of the
+    reference's final displacement (3.37 R) within 5 %."""
+    import csv
+    import tempfile
+
+    sim = _sim("cylinder_entry_2d", [("output.vtk", False), ("output.progress", False)])
+    release = sim.case["polygon"][0]["floating"]["release"]
+    with tempfile.TemporaryDirectory() as tmp:
+        sim.run(tmp, progress=False)
+        with open(Path(tmp) / "probes.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+    R, g = 1.0, 9.81
+    t = np.array([float(r["time"]) for r in rows])
+    y = np.array([float(r["cylinder_y"]) for r in rows])
+    T = (t - release) * np.sqrt(g / R)
+    keep = (T >= 0) & (T <= 8.0)
+    T, d = T[keep], y[keep] - y[keep][0]
+    rT, rd = ref.fekken_cylinder()
+    err = float(np.max(np.abs(d - np.interp(T, rT, rd))) / abs(rd[-1]))
+    return Result("Cylinder entry (Fekken 2004), WCSPH-BI", "largest |displacement - reference| / final reference "
+                  "displacement, T <= 8", "Fekken (2004), as in DualSPHysics' CaseFloatingSphereVal2D", err, 0.05,
+                  bool(err < 0.05), f"displacement at T = 8: {np.interp(8.0, T, d):.3f} m against {rd[-1]:.3f} m; "
+                  f"R / dp = {R / sim.dp:g}",
+                  [("SPH", T, d, "sim"), ("Fekken 2004", rT, rd, "ref")], ("T = t sqrt(g/R)", "displacement [m]"))
+
+
 #: the resolution of the Lobovsky check: H / dp = 150
 LOBOVSKY_DP = 0.002
 
@@ -411,6 +439,7 @@ CHECKS = [
     (moving_square, False),
     (lobovsky, False),
     (floating_box, False),
+    (cylinder_entry, False),
     (convergence_poiseuille, False),
     (convergence_taylor_green, False),
 ]

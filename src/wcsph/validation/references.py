@@ -67,3 +67,9 @@ def lobovsky_pressure(sensor):
     as TNL-SPH ships it), T = t sqrt(g/H)."""
     d = np.loadtxt(DATA / f"lobovsky_2014_pressure_P{sensor}.dat", comments="#")
     return d[:, 0], d[:, 1]
+
+
+def fekken_cylinder():
+    """(T, displacement [m]) of Fekken's (2004) sinking cylinder, R = 1 m, T = t sqrt(g/R)."""
+    d = np.loadtxt(DATA / "fekken_2004_cylinder_displacement.dat", comments="#")
+    return d[:, 0], d[:, 1]
