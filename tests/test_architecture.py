@@ -18,7 +18,7 @@ DOC = Path(__file__).resolve().parents[1] / "docs" / "architecture.md"
 #: the layers of the package, lowest first: a module may import from its own layer and below
 LAYERS = [
     {"errors", "version", "registry", "expressions", "progress", "numba_cache", "threads", "grid", "particles"},
-    {"kernels", "backends", "integrators", "motion"},
+    {"kernels", "backends", "integrators", "motion", "floating"},
     {"physics"},
     {"plugins", "io", "open_boundary", "parallel"},
     {"config"},

@@ -64,10 +64,16 @@ def test_a_callback_falls_due_each_interval_and_never_at_zero():
 
 def test_the_stages_of_a_case_follow_from_it():
     """A case without open boundaries has no inflow stages; one with them has both, around the
-    integrator; the walls move after the time advanced and the check comes last."""
+    integrator; the walls move after the time advanced (after the floating bodies' step when
+    there are floating bodies) and the check comes last."""
+    from types import SimpleNamespace
+
     from wcsph.run.simulation import stages
 
-    names = [type(s).__name__ for s in stages(object(), object(), None)]
+    fixed, floating = SimpleNamespace(floating={}), SimpleNamespace(floating={1: object()})
+    names = [type(s).__name__ for s in stages(object(), fixed, None)]
     assert "InflowBefore" not in names and names[-3:] == ["Advance", "MoveWalls", "Check"]
-    opened = [type(s).__name__ for s in stages(object(), object(), object())]
+    names = [type(s).__name__ for s in stages(object(), floating, None)]
+    assert names[-4:] == ["Advance", "MoveBodies", "MoveWalls", "Check"]
+    opened = [type(s).__name__ for s in stages(object(), fixed, object())]
     assert opened.index("InflowBefore") < opened.index("Integrate") < opened.index("InflowAfter")
