@@ -164,3 +164,20 @@ def test_grid_outside_the_domain_is_one_line(tmp_path, capsys):
     assert main(["run", str(case), "-o", str(tmp_path / "out"), "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "grids[0]" in err and "outside the domain" in err and "Traceback" not in err
+
+
+def test_surface_of_the_3d_dam_break_is_closed_at_every_frame(tmp_path):
+    """The shipped dam_break_3d (coarse, 0.3 s, through the impact on the far wall): every
+    frame's surface is in surface.pvd and closed (each edge shared by two triangles)."""
+    import wcsph
+
+    wcsph.run("dam_break_3d", output=tmp_path, progress=False,
+              overrides=[("dp", 0.04), ("time.end", 0.3), ("output.vtk", False), ("output.interval", 0.05),
+                         ("output.surface", True)])
+    frames = _series(tmp_path / "surface.pvd")
+    assert len(frames) == 7
+    for _, name in frames:
+        tri = meshio.read(tmp_path / name).cells[0].data
+        edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+        _, uses = np.unique(edges, axis=0, return_counts=True)
+        assert len(tri) > 500 and (uses == 2).all(), name
