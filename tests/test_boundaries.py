@@ -168,7 +168,8 @@ def test_validate_command_writes_a_report(tmp_path):
 
 # ------------------------------------------------------------------ moving walls
 MOTION_SPEC = {"velocity": None, "omega": 0.0, "amplitude": None, "angle_amplitude": 0.0, "frequency": 0.0,
-               "phase": 0.0, "centre": None, "axis": None, "file": ""}
+               "phase": 0.0, "centre": None, "axis": None, "file": "", "height": 0.0, "period": 0.0, "depth": 0.0,
+               "ramp": -1.0}
 
 
 @pytest.mark.parametrize("dim, motion", [
@@ -177,6 +178,10 @@ MOTION_SPEC = {"velocity": None, "omega": 0.0, "amplitude": None, "angle_amplitu
     (3, {"kind": "velocity", "velocity": [0.3, -0.1, 0.2], "omega": 2.0, "axis": [1.0, 2.0, 2.0]}),
     (3, {"kind": "sinusoidal", "amplitude": [0.05, 0.02, 0.01], "angle_amplitude": 0.3, "frequency": 1.5,
          "phase": 0.2, "axis": [0.0, 1.0, 1.0]}),
+    (2, {"kind": "piston", "height": 0.06, "period": 1.2, "depth": 0.4, "ramp": 0.8}),  # t = 0.37: in the ramp
+    (2, {"kind": "flap", "height": 0.06, "period": 0.5, "depth": 0.4, "ramp": 0.0, "centre": [0.0, -0.4]}),
+    (3, {"kind": "flap", "height": 0.06, "period": 1.2, "depth": 0.4, "centre": [0.0, 0.0, -0.4],
+         "axis": [0.0, 1.0, 0.0]}),
 ])
 def test_wall_velocity_and_acceleration_are_the_rates_of_its_position(dim, motion):
     """v_b and a_b of every wall point are the first and second time derivatives of its
@@ -201,6 +206,47 @@ def test_wall_velocity_and_acceleration_are_the_rates_of_its_position(dim, motio
     assert np.allclose(np.linalg.norm(n, axis=0), 1)
     edge = x[:, 1] - x[:, 0]  # the bottom edge; its normal stays perpendicular to it
     assert abs(edge @ n[:, 0]) < 1e-12
+
+
+def test_wavemaker_strokes_follow_linear_theory():
+    """k solves the dispersion relation; Biesel's ratio H/S tends to kh (piston) and kh/2
+    (flap) in shallow water and to 2 in deep water; the flume case's piston stroke."""
+    from wcsph.motion import wave_number, wavemaker_stroke
+
+    for T, h in ((1.2, 0.4), (5.0, 0.2), (0.6, 3.0)):
+        w = 2 * math.pi / T
+        k = wave_number(w, h, 9.81)
+        assert 9.81 * k * math.tanh(k * h) == pytest.approx(w * w, rel=1e-12)
+    S, k = wavemaker_stroke("piston", 0.01, 20.0, 0.1, 9.81)  # kh = 0.05
+    assert 0.01 / S == pytest.approx(k * 0.1, rel=1e-3)
+    S, k = wavemaker_stroke("flap", 0.01, 20.0, 0.1, 9.81)
+    assert 0.01 / S == pytest.approx(k * 0.1 / 2, rel=1e-3)
+    for kind in ("piston", "flap"):
+        S, k = wavemaker_stroke(kind, 0.1, 0.8, 10.0, 9.81)  # kh = 63
+        assert 0.1 / S == pytest.approx(2.0, rel=0.04)
+    assert wavemaker_stroke("piston", 0.06, 1.2, 0.4, 9.81)[0] == pytest.approx(0.0484, abs=1e-4)
+
+
+def test_damping_zone_relaxes_the_velocity_inside_it():
+    """v <- v (1 - dt beta s^2), s the depth into the zone along its direction over its length:
+    nothing before and at its entrance, the full rate at its end."""
+    from wcsph.backends import get_backend
+    from wcsph.run.damping import Damping, DampedFluid
+
+    zone = {"min": [1.0, 0.0], "max": [3.0, 1.0], "direction": [1.0, 0.0], "strength": 10.0}
+    d = Damping(get_backend("cpu"), 2, [zone])
+    x = np.array([[0.5, 1.0, 2.0, 2.999], [0.5, 0.5, 0.5, 0.5]])
+    v = np.ones((2, 4))
+
+    class S:  # the state the stage reads
+        fluid = type("F", (), {"n": 4, "__getitem__": lambda self, k: {"x": x, "v": v}[k]})()
+        dtype = np.float64
+        dt = 0.01
+
+    d(S)
+    s = np.array([0.0, 0.0, 0.5, 0.9995])
+    assert np.allclose(v, 1 - 0.01 * 10.0 * s**2)
+    assert DampedFluid._fields == ("x", "v")
 
 
 def test_table_motion_from_csv(tmp_path):

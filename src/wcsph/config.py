@@ -49,6 +49,9 @@ WALL_FILE = dict({"file": ("str", "", None), "mesh": ("str", "", None),
 #: pressure sensor at ``position``; water-level gauge along the vertical line from
 #: ``position`` up by ``length`` (0: to the top of the domain); ``extrapolate``: a pressure
 #: sensor carries each particle's p to the point along the momentum equation's grad p
+#: a ``[[damping]]`` zone (``run.damping``): a box where waves are absorbed
+DAMPING = {"min": ("vec", REQUIRED, None), "max": ("vec", REQUIRED, None), "direction": ("vec", None, None),
+           "strength": ("float", 10.0, POS)}
 #: a ``[[grids]]`` table: nodes origin + sum_a i_a axes[a] / (counts[a] - 1), i_a = 0 .. counts[a] - 1
 GRID = {"name": ("str", REQUIRED, None), "origin": ("vec", REQUIRED, None), "axes": ("axes", REQUIRED, None),
         "counts": ("counts", REQUIRED, None), "interval": ("float", 0.0, NONNEG)}
@@ -104,6 +107,7 @@ SCHEMA = {
     }, REQUIRED, None),
     "probes": ([PROBE], [], None),
     "grids": ([GRID], [], None),
+    "damping": ([DAMPING], [], None),
     # a run on several MPI ranks (``mpiexec -n N wcsph run``): slabs along ``axis`` (auto: the
     # longest), cuts moved when the particles per rank (``balance = "time"``: the seconds of
     # work per rank) differ from the mean by more than ``balance_threshold``, checked every
@@ -266,6 +270,10 @@ def validate(data, src="<case>"):
         if probe["kind"] == "flow" and (probe["normal"] is None or not any(probe["normal"])):
             _fail(src, f"probes[{k}].normal", "a flow section needs the normal of its plane (the direction "
                   "the flux counts as positive), e.g. normal = [1.0, 0.0]")
+    for k, z in enumerate(case["damping"]):
+        _check_box(src, f"damping[{k}]", z)
+        if z["direction"] is not None and not any(z["direction"]):
+            _fail(src, f"damping[{k}].direction", "must not be zero (the way the waves run into the zone)")
     for k, g in enumerate(case["grids"]):
         if len(g["counts"]) != len(g["axes"]):
             _fail(src, f"grids[{k}].counts", f"one count per edge: {len(g['axes'])} edges, {len(g['counts'])} counts")

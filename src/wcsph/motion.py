@@ -15,6 +15,14 @@ Kinds (``motion.kind``):
 * ``velocity``: d = U t, theta = omega t (constant ``velocity`` U and ``omega``);
 * ``sinusoidal``: d = A sin(2 pi f t + phi), theta = Theta sin(2 pi f t + phi) (``amplitude``
   A, ``angle_amplitude`` Theta, ``frequency`` f, ``phase`` phi);
+* ``piston`` and ``flap``: a wavemaker for regular waves of ``height`` H and ``period`` T in
+  water of ``depth`` h (linear theory). The wave number k solves omega^2 = g k tanh(k h), and
+  Biesel's transfer function gives the stroke S (at the still water level) from H: piston
+  H/S = 2 (cosh 2kh - 1) / (sinh 2kh + 2kh), moving along x, d = S/2 r(t) sin(omega t + phi);
+  flap (hinged at its ``centre``, on the bottom) H/S = 4 sinh(kh)/(kh) (kh sinh kh - cosh kh
+  + 1) / (sinh 2kh + 2kh), turning by theta = atan(S / 2h) r(t) sin(omega t + phi). The ramp
+  r(t) = (1 - cos(pi t / t_r)) / 2 over ``ramp`` t_r seconds (default two periods) starts it
+  without a jerk;
 * ``table``: a CSV ``file`` with columns t, x, y[, z], theta (a header row allowed): d and
   theta interpolated linearly, their rates the slopes of the segment t lies in (the exact
   derivative of the interpolated motion); held at the last row after the table ends. The
@@ -32,7 +40,7 @@ from .registry import NONNEG, one_of
 
 #: the ``motion`` table of a wall source, in the config schema's form
 MOTION = {
-    "kind": ("str", "velocity", one_of("velocity", "sinusoidal", "table")),
+    "kind": ("str", "velocity", one_of("velocity", "sinusoidal", "table", "piston", "flap")),
     "velocity": ("vec", None, None),
     "omega": ("float", 0.0, None),
     "amplitude": ("vec", None, None),
@@ -42,15 +50,55 @@ MOTION = {
     "centre": ("vec", None, None),
     "axis": ("vec", None, None),
     "file": ("str", "", None),
+    "height": ("float", 0.0, NONNEG),
+    "period": ("float", 0.0, NONNEG),
+    "depth": ("float", 0.0, NONNEG),
+    "ramp": ("float", -1.0, None),
 }
+
+
+def wave_number(omega, depth, g):
+    """k of linear waves of angular frequency omega in water of the given depth:
+    omega^2 = g k tanh(k h), by Newton's method from the deep-water k."""
+    k = max(omega * omega / g, omega / math.sqrt(g * depth))
+    for _ in range(100):
+        t = math.tanh(k * depth)
+        f = g * k * t - omega * omega
+        k_new = k - f / (g * t + g * k * depth * (1 - t * t))
+        if abs(k_new - k) < 1e-14 * k:
+            return k_new
+        k = k_new
+    return k
+
+
+def wavemaker_stroke(kind, height, period, depth, g):
+    """(stroke S at the still water level, k) of a piston or flap wavemaker for waves of
+    ``height`` and ``period`` (Biesel's transfer function)."""
+    k = wave_number(2 * math.pi / period, depth, g)
+    kh = k * depth
+    if kind == "piston":
+        ratio = 2 * (math.cosh(2 * kh) - 1) / (math.sinh(2 * kh) + 2 * kh)
+    else:
+        ratio = 4 * math.sinh(kh) / kh * (kh * math.sinh(kh) - math.cosh(kh) + 1) / (math.sinh(2 * kh) + 2 * kh)
+    return height / ratio, k
 
 
 class Motion:
     """d(t), theta(t) and their rates for one ``motion`` table (validated)."""
 
-    def __init__(self, spec, dim, source_dir=".", key="motion"):
+    def __init__(self, spec, dim, source_dir=".", key="motion", gravity=9.81):
         self.spec, self.dim = spec, dim
         self.kind = spec["kind"]
+        if self.kind in ("piston", "flap"):
+            if not gravity > 0:
+                raise CaseError(f"{key}.kind: a wavemaker needs gravity (linear wave theory)")
+            for name in ("height", "period", "depth"):
+                if not spec[name] > 0:
+                    raise CaseError(f"{key}.{name}: a {self.kind} wavemaker needs the waves' height, period and "
+                                    "the water depth at the paddle (> 0)")
+            self.stroke, self.k = wavemaker_stroke(self.kind, spec["height"], spec["period"], spec["depth"], gravity)
+            self.omega_w = 2 * math.pi / spec["period"]
+            self.t_ramp = spec["ramp"] if spec["ramp"] >= 0 else 2 * spec["period"]
         zero = [0.0] * dim
         self.u = np.asarray(spec["velocity"] or zero, dtype=float)
         self.a = np.asarray(spec["amplitude"] or zero, dtype=float)
@@ -86,9 +134,30 @@ class Motion:
             self.accels = (np.diff(self.rates, axis=0) / np.diff(mid)[:, None]
                            if len(mid) > 1 else np.zeros((0, dim + 1)))
 
+    def _wave(self, t):
+        """(q, q', q'') of the wavemaker's coordinate: the piston's displacement, the flap's
+        angle."""
+        amp = 0.5 * self.stroke if self.kind == "piston" else math.atan(0.5 * self.stroke / self.spec["depth"])
+        w, tr = self.omega_w, self.t_ramp
+        if tr > 0 and t < tr:
+            a = math.pi / tr
+            r, r1, r2 = 0.5 * (1 - math.cos(a * t)), 0.5 * a * math.sin(a * t), 0.5 * a * a * math.cos(a * t)
+        else:
+            r, r1, r2 = 1.0, 0.0, 0.0
+        arg = w * t + self.spec["phase"]
+        sn, cs = math.sin(arg), math.cos(arg)
+        return (amp * r * sn, amp * (r1 * sn + r * w * cs), amp * (r2 * sn + 2 * r1 * w * cs - r * w * w * sn))
+
     def state(self, t):
         """(d (dim,), theta, d' (dim,), omega) at time t."""
         s = self.spec
+        if self.kind in ("piston", "flap"):
+            q, q1, _ = self._wave(t)
+            zero = np.zeros(self.dim)
+            if self.kind == "flap":
+                return zero, q, zero, q1
+            e = np.eye(self.dim)[0]
+            return q * e, 0.0, q1 * e, 0.0
         if self.kind == "velocity":
             return self.u * t, s["omega"] * t, self.u, s["omega"]
         if self.kind == "sinusoidal":
@@ -107,6 +176,11 @@ class Motion:
     def acceleration(self, t):
         """(d'' (dim,), omega') at time t."""
         s = self.spec
+        if self.kind in ("piston", "flap"):
+            q2 = self._wave(t)[2]
+            if self.kind == "flap":
+                return np.zeros(self.dim), q2
+            return q2 * np.eye(self.dim)[0], 0.0
         if self.kind == "velocity":
             return np.zeros(self.dim), 0.0
         if self.kind == "sinusoidal":
@@ -154,15 +228,15 @@ class Bodies:
     state) and centres, and the placement of the wall points of the moving ones at time t (on
     the host; walls are few beside the fluid)."""
 
-    def __init__(self, specs, dim, x0, n0, body, source_dir=".", floating=None):
+    def __init__(self, specs, dim, x0, n0, body, source_dir=".", floating=None, gravity=9.81):
         """``specs``: one (name, motion table or None, key) per body; ``x0``, ``n0``: the
         wall points and normals (n0 None for wall particles) at t = 0; ``body``: each
         point's body index; ``floating``: {body index: ``floating.FloatingBody``}."""
         self.dim = dim
         self.names = [s[0] for s in specs]
         self.floating = dict(floating or {})
-        self.motions = [self.floating[b] if b in self.floating else Motion(m, dim, source_dir, key) if m is not None
-                        else None for b, (_, m, key) in enumerate(specs)]
+        self.motions = [self.floating[b] if b in self.floating else Motion(m, dim, source_dir, key, gravity)
+                        if m is not None else None for b, (_, m, key) in enumerate(specs)]
         self.centres = []
         for b, (_, m, _) in enumerate(specs):
             pts = x0[:, body == b]

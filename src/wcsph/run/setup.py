@@ -74,7 +74,7 @@ def build(case, backend, comm):
 
     body = wall0.pop("body")
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,
-                    _floating_bodies(case))
+                    _floating_bodies(case), float(np.linalg.norm(case["physics"]["gravity"])))
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
     walls.add("v", "vector", dtype, be)
     walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)

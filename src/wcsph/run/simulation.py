@@ -8,6 +8,7 @@ A step is the list ``stages``, each a callable of the run state (``run.state.Sta
 4. ``Integrate``: the integrator's evaluations and maps;
 5. ``AfterStep``: the model's after-step passes;
 6. ``InflowAfter``: buffers prescribed, particles enter and leave;
+6b. ``Damping``: the velocity relaxed in damping zones (cases with ``[[damping]]``);
 7. ``Advance``: periodic wrap, time and step count;
 8. ``MoveBodies``: the floating bodies' step under the fluid's loads and gravity (cases with
    floating bodies);
@@ -27,6 +28,7 @@ from . import checkpoint, loop, setup
 from .advance import Advance
 from .after_step import AfterStep
 from .check import Check
+from .damping import Damping
 from .floating import MoveBodies
 from .inflow import InflowAfter, InflowBefore
 from .integrate import Integrate
@@ -36,14 +38,15 @@ from .timestep import TimeStep
 from .walls import MoveWalls
 
 
-def stages(integrator, bodies, open_boundaries):
+def stages(integrator, bodies, open_boundaries, damping=None):
     """The ordered stages of a step (the module docstring lists them); the inflow stages only
-    for a case with open boundaries."""
+    for a case with open boundaries, the damping only with damping zones."""
     integrate = Integrate(integrator)
     inflow = [InflowBefore(open_boundaries)] if open_boundaries is not None else []
     outflow = [InflowAfter(open_boundaries)] if open_boundaries is not None else []
     floating = [MoveBodies(bodies)] if bodies.floating else []
-    return [Sort(), integrate.parameters, *inflow, integrate, AfterStep(), *outflow, Advance(), *floating,
+    damped = [damping] if damping is not None else []
+    return [Sort(), integrate.parameters, *inflow, integrate, AfterStep(), *outflow, *damped, Advance(), *floating,
             MoveWalls(bodies), Check()]
 
 
@@ -68,7 +71,8 @@ class Simulation:
                              open=built.open, cfl=built.cfl, warnings=built.warnings, resumed_output=None)
         self.probes = PointProbes(self.state)
         self.time_step_rule = TimeStep(case["time"], self.cfl, self.integrator, self.model.kinematic_viscosity())
-        self.stages = stages(self.integrator, self.bodies, self.open)
+        damping = Damping(self.backend, self.dim, case["damping"]) if case["damping"] else None
+        self.stages = stages(self.integrator, self.bodies, self.open, damping)
         self.setup_time = time.perf_counter() - t_setup  # compiles (or loads) the loops
 
     def __getattr__(self, name):  # the run state's fields

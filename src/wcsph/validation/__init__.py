@@ -381,6 +381,43 @@ def cylinder_entry(quick):
                   [("SPH", T, d, "sim"), ("Fekken 2004", rT, rd, "ref")], ("T = t sqrt(g/R)", "displacement [m]"))
 
 
+def wave_flume(quick):
+    """``wave_flume_2d``: a piston makes regular waves (linear theory: H = 0.06 m, T = 1.2 s,
+    h = 0.4 m); at gauges 2, 3 and 4 wavelengths from it, over the last 8 s, the mean
+    zero-crossing height within 5 % of H and the period within 1 % of T; the reflection
+    coefficient of the far end (damping zone) from two gauges a quarter wavelength apart
+    (Goda & Suzuki 1976) below 10 %."""
+    import csv
+    import tempfile
+
+    from ..motion import wave_number
+    from .waves import goda_suzuki, zero_crossing
+
+    sim = _sim("wave_flume_2d", [("output.vtk", False), ("output.progress", False)])
+    m = sim.case["obstacle"][0]["motion"]
+    H, T, h = m["height"], m["period"], m["depth"]
+    with tempfile.TemporaryDirectory() as tmp:
+        sim.run(tmp, progress=False)
+        with open(Path(tmp) / "probes.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+    t = np.array([float(r["time"]) for r in rows])
+    g = {name: np.array([float(r[name]) for r in rows]) for name in ("G2", "G3", "G4", "G3b")}
+    win = t >= t[-1] - 8.0
+    figures = {name: zero_crossing(t[win], g[name][win]) for name in ("G2", "G3", "G4")}
+    k = wave_number(2 * math.pi / T, h, 9.81)
+    a_i, a_r = goda_suzuki(t[win], g["G3"][win], g["G3b"][win], T, 0.25 * 2 * math.pi / k, k)
+    kr = a_r / a_i
+    e_h = max(abs(hh / H - 1) for hh, _ in figures.values())
+    e_t = max(abs(tt / T - 1) for _, tt in figures.values())
+    err = max(e_h / 0.05, e_t / 0.01, kr / 0.10)
+    detail = ("| gauge | height [m] | vs H | period [s] | vs T |\n|---|---|---|---|---|\n"
+              + "\n".join(f"| {n} | {hh:.4f} | {hh / H - 1:+.1%} | {tt:.4f} | {tt / T - 1:+.2%} |" for n, (hh, tt) in figures.items())
+              + f"\n\nreflection coefficient (G3, G3b) {kr:.3f}; incident amplitude {a_i:.4f} m; dp = {sim.dp:g} m")
+    return Result("Wave flume, piston, regular waves, WCSPH-BI", "largest of height error / 5 %, period error / 1 % "
+                  "(gauges 2-4 wavelengths out) and reflection / 10 %", "linear wavemaker theory (Biesel)", err, 1.0,
+                  bool(err < 1.0), detail, [(n, t, g[n], "sim") for n in ("G2", "G4")], ("t [s]", "level [m]"))
+
+
 #: the resolution of the Lobovsky check: H / dp = 150
 LOBOVSKY_DP = 0.002
 
@@ -440,6 +477,7 @@ CHECKS = [
     (lobovsky, False),
     (floating_box, False),
     (cylinder_entry, False),
+    (wave_flume, False),
     (convergence_poiseuille, False),
     (convergence_taylor_green, False),
 ]
