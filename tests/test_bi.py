@@ -195,6 +195,23 @@ def test_probes_read_the_still_water(tmp_path):
     assert header[-3:] == ["p_bottom", "p_mid", "level"]
 
 
+def test_volume_gauge_reads_the_column_of_water():
+    """A level gauge of method "volume" reads the base plus the water's volume per unit area
+    above it: in the still tank (lattice, hydrostatic density) the depth less the column's
+    compression, g H / (2 c0^2) of H; above a raised base only what lies above it; in 3D
+    the same with the 2D kernel over the horizontal plane."""
+    for name, x in (("hydrostatic_2d_bi", [1.0, 0.0]), ("dam_break_3d_bi", [0.15, 0.2, 0.0])):
+        gauges = [{"name": "v0", "kind": "level", "method": "volume", "position": x},
+                  {"name": "v1", "kind": "level", "method": "volume", "position": x[:-1] + [0.1]}]
+        case = load(name, [("time.end", 0.001), ("output.vtk", False), ("probes", gauges)])
+        sim = wcsph.Simulation(case)
+        values = sim.probes.sample()
+        H = case["fluid"][0]["max"][-1]
+        squeeze = 9.81 * H / (2 * sim.c0**2) * H
+        assert values["v0"] == pytest.approx(H - squeeze, abs=0.1 * case["dp"]), name
+        assert values["v1"] == pytest.approx(values["v0"], abs=0.1 * case["dp"]), name
+
+
 def test_extrapolated_sensor_reads_the_wall_pressure():
     """A sensor on the floor of the still tank: the Shepard mean over its one-sided support
     reads the pressure of the water above it (several % low); carried along the momentum

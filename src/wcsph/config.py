@@ -58,7 +58,8 @@ GRID = {"name": ("str", REQUIRED, None), "origin": ("vec", REQUIRED, None), "axe
 PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, one_of("pressure", "level", "flow")),
          "normal": ("vec", None, None),
          "position": ("vec", REQUIRED, None), "length": ("float", 0.0, NONNEG),
-         "extrapolate": ("bool", False, None)}
+         "extrapolate": ("bool", False, None),
+         "method": ("str", "kernel_sum", one_of("kernel_sum", "volume"))}
 
 #: the runtime parameters of the WCSPH-BI spec, accepted flat in a ``[parameters]`` table
 #: under the spec's names, and where each one lives in the case: those of the plug-in

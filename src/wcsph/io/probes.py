@@ -88,7 +88,12 @@ class PointProbes:
     * level: the vertical line from ``position`` up by ``length`` is sampled every dp/4; the
       level is the highest height where the kernel sum sum_j W V_j is at least 1/2 (the free
       surface criterion of DualSPHysics' gauges), interpolated between samples; the line's
-      base when it is dry;
+      base when it is dry. With ``method = "volume"`` the level is the base plus the water's
+      volume per unit area above it, sum_j V_j phi(r_j) over the particles above the base,
+      phi the 1D (2D) or 2D (3D) Wendland kernel of the case's h in the horizontal distance
+      r_j (integral 1): the water column's height whatever the particles' arrangement near the
+      surface (in waves the kernel-sum criterion reads low where the surface particles spread);
+      it counts everything above the base, so a gauge over a body or under spray reads those too;
     * flow: the volume and mass flux through the plane through ``position`` normal to
       ``normal`` (the whole plane within the domain; m^3/s in 3D, m^2/s per unit width in
       2D), Q = sum_j V_j (v_j . n) phi(d_j) and sum_j m_j (v_j . n) phi(d_j), d_j the
@@ -109,7 +114,7 @@ class PointProbes:
             if np.any(base < lo) or np.any(base >= hi):
                 raise CaseError(f"{case['_source']}: probes[{k}].position: {pr['position']} lies outside "
                                 f"the domain {np.round(lo, 6).tolist()} .. {np.round(hi, 6).tolist()}")
-            if pr["kind"] == "flow":
+            if pr["kind"] == "flow" or (pr["kind"] == "level" and pr["method"] == "volume"):
                 line = np.zeros((state.dim, 0))
             elif pr["kind"] == "pressure":
                 line = base[:, None]
@@ -135,14 +140,24 @@ class PointProbes:
                 ([f"{p['name']}_volume_flux", f"{p['name']}_mass_flux"] if p["kind"] == "flow" else [p["name"]])]
 
     def _flows(self):
-        """{column: value} of the flow sections."""
+        """{column: value} of the flow sections and the volume gauges."""
         state, par = self.state, self.state.par
         flows = [p for p in self.specs if p["kind"] == "flow"]
-        if not flows:
+        gauges = [p for p in self.specs if p["kind"] == "level" and p["method"] == "volume"]
+        if not flows and not gauges:
             return {}
         x, v, m, rho = (a.astype(float) for a in state.owned_host("x", "v", "m", "rho"))
         h = state.h
         sums = []
+        for pr in gauges:
+            base = np.asarray(pr["position"], dtype=float)
+            r = np.linalg.norm(x[:-1] - base[:-1, None], axis=0) / h
+            if state.dim == 2:
+                phi = 5.0 / (8.0 * h) * (1.0 - 0.5 * r) ** 3 * (1.5 * r + 1.0)
+            else:
+                phi = 7.0 / (4.0 * np.pi * h * h) * (1.0 - 0.5 * r) ** 4 * (2.0 * r + 1.0)
+            sel = (r < 2.0) & (x[-1] > base[-1])
+            sums.append(float(np.sum(m[sel] / rho[sel] * phi[sel])))
         for pr in flows:
             n = np.asarray(pr["normal"], dtype=float)
             n /= np.linalg.norm(n)
@@ -154,6 +169,9 @@ class PointProbes:
         if par is not None:
             sums = [float(s) for s in par.sum(sums)]
         out = {}
+        for k, pr in enumerate(gauges):
+            out[pr["name"]] = float(pr["position"][-1]) + sums[k]
+        sums = sums[len(gauges):]
         for k, pr in enumerate(flows):
             out[f"{pr['name']}_volume_flux"], out[f"{pr['name']}_mass_flux"] = sums[2 * k], sums[2 * k + 1]
         return out
@@ -174,7 +192,7 @@ class PointProbes:
             sp, sw, sc = par.sum(np.stack([sp * mine, sw * mine, sc * mine]))
         out = {}
         for pr, sl in zip(self.specs, self.slices):
-            if pr["kind"] == "flow":
+            if pr["kind"] == "flow" or (pr["kind"] == "level" and pr["method"] == "volume"):
                 continue
             if pr["kind"] == "pressure":
                 w = sw[sl][0]

@@ -6,9 +6,10 @@ import numpy as np
 
 
 def zero_crossing(t, eta):
-    """(mean height, mean period) of the waves of the record eta(t) (its mean removed): between
-    consecutive zero up-crossings (interpolated), the crest minus the trough, and the time."""
-    e = eta - eta.mean()
+    """(mean height, mean period) of the waves of the record eta(t) (its linear trend removed):
+    between consecutive zero up-crossings (interpolated), the crest minus the trough, and the
+    time."""
+    e = eta - np.polyval(np.polyfit(t, eta, 1), t)
     up = np.flatnonzero((e[:-1] < 0) & (e[1:] >= 0))
     tc = t[up] - e[up] * (t[up + 1] - t[up]) / (e[up + 1] - e[up])
     heights = [e[a:b + 1].max() - e[a:b + 1].min() for a, b in zip(up[:-1], up[1:])]
