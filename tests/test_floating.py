@@ -101,3 +101,21 @@ def test_floating_errors_name_the_key(change, key):
             "tank": {"min": [0.0, 0.0], "max": [1.0, 1.0]}}
     with pytest.raises(CaseError, match=key.replace("[", r"\[").replace("]", r"\]")):
         validate(dict(base, **change))
+
+
+def test_boundary_particle_loads_carry_the_weight_of_the_water():
+    """Classic model (Akinci wall particles, Adami wall pressure), hydrostatic_2d after its
+    gravity ramp: the tank's load, the reaction of the wall terms on the fluid summed over its
+    wall particles (one pass), is the weight of the water within 0.5 % (measured 0.05 %)."""
+    from wcsph.config import load
+
+    sim = wcsph.Simulation(load("hydrostatic_2d", [("tank.name", "tank"), ("output.vtk", False)]))
+    while sim.t < 1.2:
+        sim.step(sim.time_step())
+    loads = []
+    for _ in range(10):
+        sim.step(sim.time_step())
+        loads.append(sim.body_loads())
+    weight = sim.n_fluid() * sim.mass * 9.81
+    assert -np.mean([b["tank_fy"] for b in loads]) == pytest.approx(weight, rel=0.005)
+    assert abs(np.mean([b["tank_fx"] for b in loads])) < 1e-3 * weight

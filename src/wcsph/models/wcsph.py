@@ -31,7 +31,7 @@ from ..physics import AfterStepPass, Ctx, compose
 from ..physics.correction import (make_cspm_boundary, make_cspm_matrix, make_cspm_store, make_shepard_density,
                                  make_shepard_density_store)
 from ..physics.density import make_akinci_volume
-from ..physics.loads import make_element_loads
+from ..physics.loads import make_element_loads, make_particle_loads
 from ..physics.renormalization import (make_boundary_interpolation, make_boundary_store, make_noslip_velocity,
                                       make_shepard, make_wall_pressure)
 from ..physics.wall_corrections import make_init as make_wall_init
@@ -83,6 +83,19 @@ WALL_FIELDS = {"n": "vector", "elementSize": "scalar", "psi": "scalar", "vol": "
                "rho": "scalar", "pr": "scalar"}
 #: array dimensions of a field of each kind ((N,) scalars; (dim, N) vectors and matrices)
 _NDIM = {"scalar": 1, "vector": 2, "matrix": 2}
+
+
+_LOAD_VIEWS = {}
+
+
+def _with_load(view):
+    """``view`` with a ``load`` field before the cell list (one class per view)."""
+    if view not in _LOAD_VIEWS:
+        fields = [f for f in view._fields if f not in ("cell", "start")] + ["load", "cell", "start"]
+        cls = namedtuple(view.__name__ + "Load", " ".join(fields))
+        globals()[cls.__name__] = cls  # found by name, as every view class (compiled-loop caches)
+        _LOAD_VIEWS[view] = cls
+    return _LOAD_VIEWS[view]
 
 
 def _stores(ctx, eos, continuity, consistent, needs_pr, corrected, sound):
@@ -233,6 +246,9 @@ class WCSPH:
                               pair2=compose(*walls) if walls else None,
                               branchless=dim == 2 and self.boundary == "elements")
 
+        if self.boundary == "particles" and walls:  # the fluid's load on each wall particle
+            self.load_pass = mk(dim, dtype, *make_particle_loads(ctx, compose(*walls)))
+
         # the passes after each step, in this order
         self.after_step_passes = []
         for slot in ("collision", "xsph", "shifting"):
@@ -265,6 +281,8 @@ class WCSPH:
             self.wall_view = ParticleWallViewPressure
         else:
             self.wall_view = ParticleWallView if psi_only else ParticleWallViewFull
+        # the wall view with the load the load pass of boundary particles writes
+        self.wall_load_view = _with_load(self.wall_view)
 
     # ------------------------------------------------------------------ set-up
     def fluid_fields(self):
@@ -388,14 +406,25 @@ class WCSPH:
         self.interaction(f, f, w, P, G)
 
     def wall_loads(self, fluid, walls, P, G):
-        """The fluid's load on each boundary element (``physics.loads``): p_b n_b S_b plus the
-        viscous wall term's reaction, written to the walls' ``load`` (dim, n). p must be
-        current (``refresh``); the consistent scheme's Shepard factor is the last evaluation's."""
+        """The fluid's load on each wall point (``physics.loads``), written to the walls'
+        ``load`` (dim, n). Boundary elements: p_b n_b S_b plus the viscous wall term's reaction;
+        boundary particles: the reaction of the wall terms (their no-slip velocity and
+        pressure from the current fluid first). p must be current (``refresh``); the
+        consistent scheme's Shepard factor is the last evaluation's."""
         if "load" not in walls.arrays:
             walls.add("load", "vector", self.dtype, self.backend, scratch=True)
         if walls.n:
             f = self.view(fluid, self.fluid_view)
-            self.load_pass(self.view(walls, LoadView), f, f, P, G)
+            if self.boundary == "elements":
+                self.load_pass(self.view(walls, LoadView), f, f, P, G)
+            else:
+                w = self.view(walls, self.wall_load_view)
+                if self.noslip_pass is not None:
+                    self.noslip_pass(self.view(walls, NoSlipWallView), f, f, P, G)
+                    w = w._replace(v=walls["v_ext"])
+                if self.wall_pressure_pass is not None:
+                    self.wall_pressure_pass(self.view(walls, self.wall_view), f, f, P, G)
+                self.load_pass(w, f, f, P, G)
         return walls["load"]
 
     def refresh(self, fluid, P):

@@ -61,3 +61,33 @@ def make_element_loads(ctx, shear, consistent):
             I.load[2, i] = s * I.n[2, i] + acc[4]
 
     return init, pair, store
+
+
+def make_particle_loads(ctx, wall_term):
+    """(init, pair, store) of the load pass of boundary particles: I the wall particles
+    (``load`` written), J the fluid; ``wall_term`` the model's wall terms composed (a pair term
+    over fluid i, wall particle j, writing the interaction accumulator). The load on wall
+    particle k is minus what it does to its fluid neighbours, -sum_j m_j a_jk with
+    m_j a_jk = V_j f[2:5] + m_j f[5:8] (the force and acceleration slots, as the interaction's
+    store reads them): the reaction of exactly the wall force the fluid feels, pressure and
+    friction, one pass over the wall particles."""
+    zero, dim = ctx.zero, ctx.dim
+
+    @register_jitable
+    def init(i, I, P):
+        return (zero, zero, zero)
+
+    @register_jitable
+    def pair(i, j, dx, dy, dz, r, I, J, P, acc):
+        f = wall_term(j, i, -dx, -dy, -dz, r, J, I, P, (zero, zero, zero, zero, zero, zero, zero, zero, zero))
+        v, m = J.m[j] / J.rho[j], J.m[j]
+        return (acc[0] - v * f[2] - m * f[5], acc[1] - v * f[3] - m * f[6], acc[2] - v * f[4] - m * f[7])
+
+    @register_jitable
+    def store(i, I, P, acc):
+        I.load[0, i] = acc[0]
+        I.load[1, i] = acc[1]
+        if dim == 3:
+            I.load[2, i] = acc[2]
+
+    return init, pair, store

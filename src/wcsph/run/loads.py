@@ -1,7 +1,6 @@
 """The fluid's force and torque on each named body, for probes.csv."""
 import numpy as np
 
-from ..particles import ParticleSet
 
 
 def body_columns(bodies, dim):
@@ -23,10 +22,10 @@ def body_loads(state, bodies):
 
     Boundary elements: the sum of the body's element loads (``physics.loads``: the wall's
     own pressure p_b n_b S_b and the reaction of the viscous wall term), the torque with
-    each element's lever arm. Boundary particles: minus the sum of m_i (a_i - a_i without
-    the body) over the fluid, the derivatives evaluated once with every wall and once
-    without the body's walls at the current state (every field they write is restored
-    after); the torque with each fluid particle's lever arm (an O(h) approximation)."""
+    each element's lever arm. Boundary particles: the sum of the body's wall-particle loads,
+    each the reaction of the wall terms on its fluid neighbours (``physics.loads``: exactly
+    the wall force the fluid feels), the torque with each wall particle's lever arm. One pass
+    over the wall points either way."""
     named = [b for b, name in enumerate(bodies.names) if name]
     if not named:
         return {}
@@ -48,17 +47,14 @@ def body_loads(state, bodies):
 def loads(state, bodies, which):
     """(force, torque about the body's centre) of the fluid on each body of ``which`` (body
     indices), totals over the ranks of a decomposed run (see ``body_loads``)."""
-    if state.model.boundary == "elements":
-        out = _element_loads(state, bodies, which)
-    else:
-        out = _particle_loads(state, bodies, which)
+    out = _wall_point_loads(state, bodies, which)
     par, dim = state.par, state.dim
     if par is not None:
         out = [tuple(np.split(par.sum(np.concatenate([f, np.ravel(t)])), [dim])) for f, t in out]
     return out
 
 
-def _element_loads(state, bodies, named):
+def _wall_point_loads(state, bodies, named):
     be, w, par = state.backend, state.walls, state.par
     state.settle()
     load = be.to_host(state.model.wall_loads(state.fluid, w, state.P, state.G)).astype(float)
@@ -73,29 +69,4 @@ def _element_loads(state, bodies, named):
         r = x[:, sel] - bodies.reference(b, state.t)[:, None]
         torque = [np.sum(r[0] * f[1] - r[1] * f[0])] if state.dim == 2 else np.cross(r.T, f.T).sum(axis=0)
         out.append((f.sum(axis=1), np.asarray(torque)))
-    return out
-
-
-def _particle_loads(state, bodies, named):
-    be, fl, par = state.backend, state.fluid, state.par
-    if par is not None:
-        par.update(fl, state.model.exchanged["state"])
-    saved = {k: be.to_host(fl[k]).copy() for k in fl.per_particle() if k in fl.scratch or k == "rho"}
-    state.model.derivatives(fl, state.walls, state.P, state.G, state.halo)
-    mine = be.to_host(fl["owned"]) != 0 if par is not None else slice(None)
-    x, m, a_all = (a.astype(float)[..., mine] for a in state.host(fl, "x", "m", "dvdt"))
-    out = []
-    host = {k: be.to_host(state.walls[k]) for k in state.walls.per_particle() if k != "cell"}
-    for b in named:
-        keep = host["body"] != b
-        rest = ParticleSet("walls", state.dim, {k: be.to_device(np.ascontiguousarray(a[..., keep]))
-                                                 for k, a in host.items()})
-        be.sort(rest, state.grid)
-        state.model.derivatives(fl, rest, state.P, state.G, state.halo)
-        f = m * (a_all - be.to_host(fl["dvdt"]).astype(float)[..., mine])  # on the fluid, from the body
-        r = x - bodies.reference(b, state.t)[:, None]
-        torque = [-np.sum(r[0] * f[1] - r[1] * f[0])] if state.dim == 2 else -np.cross(r.T, f.T).sum(axis=0)
-        out.append((-f.sum(axis=1), np.asarray(torque)))
-    for k, a in saved.items():
-        fl[k] = be.to_device(a)
     return out
