@@ -325,6 +325,8 @@ def validate(data, src="<case>"):
                   "probes.csv under it)")
         if (fl["density"] > 0) == (fl["mass"] > 0) or fl["density"] < 0 or fl["mass"] < 0:
             _fail(src, f"{key}.floating", "give the body's density or its mass (> 0), one of the two")
+        if fl["added_mass"] < 0:
+            _fail(src, f"{key}.floating.added_mass", "the relaxation's added mass coefficient, >= 0 (0: none)")
         if fl["release"] < 0:
             _fail(src, f"{key}.floating.release", "the time the body is released, >= 0")
         if fl["inertia"] < 0 or (fl["inertia"] > 0 and dim == 3):

@@ -169,7 +169,7 @@ def _floating_bodies(case):
         mesh = None
         if table.get("mesh"):
             mesh = read_surface(Path(case["_source"]).parent / table["mesh"], case["dim"])
-        out[b] = body_of(key, table, case["dim"], mesh)
+        out[b] = body_of(key, table, case["dim"], mesh, case["physics"]["rho0"])
     return out
 
 
