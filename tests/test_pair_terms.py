@@ -122,7 +122,7 @@ def test_wall_pressure_is_exact_in_a_fluid_accelerating_with_the_wall(a_wall, P,
     the wall's interpolated pressure (Adami et al. 2012, eq. 27) is then exact, whatever the
     weights, because every neighbour carries its own p to the wall along that gradient. The
     same field read without a_b is off by rho a_b . (x_b - x_j) per neighbour."""
-    from wcsph.physics.renormalization import make_boundary_interpolation
+    from wcsph.physics.renormalization import make_boundary_interpolation, make_boundary_store
 
     Wall = namedtuple("Wall", "x a")
     rng = np.random.default_rng(6)
@@ -136,7 +136,7 @@ def test_wall_pressure_is_exact_in_a_fluid_accelerating_with_the_wall(a_wall, P,
                  np.full(6, 1e-4), np.full(6, 0.1), np.full(6, 17.0))
     wall = Wall(xb[:, None], np.array(a_wall, dtype=float)[:, None])
     term = make_boundary_interpolation(ctx)
-    acc = (0.0, 0.0, 0.0)
+    acc = make_boundary_store(ctx)[0](0, wall, P)  # the pass's start: g - a_b carried along
     for j in range(6):
         d = xb - xf[:, j]
         acc = term(0, j, d[0], d[1], 0.0, float(np.linalg.norm(d)), wall, fluid, P, acc)

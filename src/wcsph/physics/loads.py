@@ -32,7 +32,7 @@ def make_element_loads(ctx, shear, consistent):
     interaction accumulator's force slots) or None."""
     w, dim, zero = ctx.w, ctx.dim, ctx.zero
     dry = ctx.dtype(DRY)
-    sample = make_hydrostatic_sample(ctx)
+    start, sample = make_hydrostatic_sample(ctx)
     if shear is None:  # inviscid: no friction
         @register_jitable
         def shear(i, j, dx, dy, dz, r, I, J, P, acc):
@@ -40,16 +40,18 @@ def make_element_loads(ctx, shear, consistent):
 
     @register_jitable
     def init(i, I, P):
-        return (zero, zero, zero, zero, zero)
+        e = start(i, I, P)  # g - a_b, carried in the last three slots
+        return (zero, zero, zero, zero, zero, e[0], e[1], e[2])
 
     @register_jitable
     def pair(i, j, dx, dy, dz, r, I, J, P, acc):
         wv = w(r, P) * J.vol[j]
-        p = sample(i, I, j, dx, dy, dz, J, P)
+        p = sample(j, dx, dy, dz, J, (acc[5], acc[6], acc[7]))
         # the fluid's friction from this element, reversed
         f = shear(j, i, -dx, -dy, -dz, r, J, I, P, (zero, zero, zero, zero, zero, zero, zero, zero, zero))
         k = J.vol[j] / J.shepard[j] if consistent and J.shepard[j] > zero else J.vol[j]
-        return (acc[0] + p * wv, acc[1] + wv, acc[2] - k * f[2], acc[3] - k * f[3], acc[4] - k * f[4])
+        return (acc[0] + p * wv, acc[1] + wv, acc[2] - k * f[2], acc[3] - k * f[3], acc[4] - k * f[4],
+                acc[5], acc[6], acc[7])
 
     @register_jitable
     def store(i, I, P, acc):

@@ -18,32 +18,42 @@ def make_shepard(ctx):
 
 
 def make_hydrostatic_sample(ctx):
-    """p_j carried from fluid particle j to the point x_i = x_j + (dx, dy, dz) of wall I along
-    the pressure gradient of a fluid at rest relative to the wall, p_j + rho_j (g - a_i) .
-    (dx, dy, dz) with a_i the wall's acceleration (Adami, Hu & Adams 2012, eq. 27; ``motion``
-    gives a_i, zero for a fixed wall or a constant velocity)."""
+    """(start, sample): p_j carried from fluid particle j to the point x_i = x_j + (dx, dy, dz)
+    of wall I along the pressure gradient of a fluid at rest relative to the wall,
+    p_j + rho_j (g - a_i) . (dx, dy, dz), a_i the wall's acceleration (Adami, Hu & Adams 2012,
+    eq. 27; ``motion`` gives a_i, zero for a fixed wall or a constant velocity). ``start(i, I,
+    P)`` gives g - a_i once per wall point (a pass carries it in its accumulator), and
+    ``sample(j, dx, dy, dz, J, e)`` the carried pressure with e = g - a_i."""
     dim, zero = ctx.dim, ctx.zero
 
     @register_jitable
-    def sample(i, I, j, dx, dy, dz, J, P):
-        gz = (P.gz - I.a[2, i]) * dz if dim == 3 else zero
-        return J.p[j] + J.rho[j] * ((P.gx - I.a[0, i]) * dx + (P.gy - I.a[1, i]) * dy + gz)
+    def start(i, I, P):
+        return (P.gx - I.a[0, i], P.gy - I.a[1, i], P.gz - I.a[2, i] if dim == 3 else zero)
 
-    return sample
+    @register_jitable
+    def sample(j, dx, dy, dz, J, e):
+        gz = e[2] * dz if dim == 3 else zero
+        return J.p[j] + J.rho[j] * (e[0] * dx + e[1] * dy + gz)
+
+    return start, sample
 
 
 def make_boundary_interpolation(ctx):
     """Wall point b (a boundary element or wall particle), fluid neighbour j: accumulate
-    (sum_j (p_j + rho_j g . x_bj) W V_j, sum_j rho_j W V_j, sum_j W V_j). Divided by the last
-    (Shepard), these give the wall pressure with the hydrostatic correction of Adami, Hu &
-    Adams (2012) and the wall density; (dx, dy, dz) = x_b - x_j."""
+    (sum_j (p_j + rho_j (g - a_b) . x_bj) W V_j, sum_j rho_j W V_j, sum_j W V_j), carrying
+    g - a_b in the accumulator's last three slots (``make_boundary_store``'s init puts it
+    there). Divided by the third (Shepard), these give the wall pressure with the correction
+    of Adami, Hu & Adams (2012) for gravity and the wall's acceleration a_b, and the wall
+    density; (dx, dy, dz) = x_b - x_j."""
     w = ctx.w
-    sample = make_hydrostatic_sample(ctx)
+    sample = make_hydrostatic_sample(ctx)[1]
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         wv = w(r, P) * J.vol[j]
-        return (acc[0] + sample(i, I, j, dx, dy, dz, J, P) * wv, acc[1] + J.rho[j] * wv, acc[2] + wv)
+        e = (acc[3], acc[4], acc[5])
+        return (acc[0] + sample(j, dx, dy, dz, J, e) * wv, acc[1] + J.rho[j] * wv, acc[2] + wv,
+                acc[3], acc[4], acc[5])
 
     return term
 
@@ -54,10 +64,12 @@ def make_boundary_store(ctx):
     otherwise get a negative pressure and pull the fluid into the wall); p0, rho0 with no
     fluid neighbour."""
     zero = ctx.zero
+    start = make_hydrostatic_sample(ctx)[0]
 
     @register_jitable
     def init(i, I, P):
-        return (zero, zero, zero)
+        e = start(i, I, P)
+        return (zero, zero, zero, e[0], e[1], e[2])
 
     @register_jitable
     def store(i, I, P, acc):
