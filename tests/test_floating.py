@@ -68,19 +68,25 @@ def test_a_box_floats_at_archimedes_draft(tmp_path):
     stable) in hydrostatic_2d_bi at dp = 0.04, released after the fluid has settled for 1 s:
     over the next 3 s its centre stays within dp/2 of the water level (where Archimedes puts
     it: draft = half its height), it drifts less than dp sideways and turns less than 0.05
-    rad. (dp = 0.02 over 5 s: within 0.3 dp, drift 0.4 dp; README, "Floating bodies".)"""
+    rad. (dp = 0.02 over 5 s: within 0.3 dp, drift 0.4 dp; README, "Floating bodies".)
+
+    Without NBVC-PST: with it the box drifts sideways 0.069 m (1.7 dp) in these 3 s, and
+    before elements stopped correcting particles beside a convex corner the drift was 0.011
+    or 0.114 m depending on the last bits of the compiled code's rounding (a fresh compile
+    or the cached one): the shift moves particles next to the body without a reaction on it
+    (open, README "Floating bodies"). Without it the drift is 0.0008 m."""
     box = {"name": "box", "min": [0.8, 0.45], "max": [1.2, 0.55], "floating": {"density": 500.0, "release": 1.0}}
     gauge = {"name": "level", "kind": "level", "position": [0.3, 0.0]}
     wcsph.run("hydrostatic_2d_bi", output=tmp_path, progress=False,
               overrides=[("dp", 0.04), ("time.end", 4.0), ("output.vtk", False), ("output.probe_interval", 0.05),
-                         ("obstacle", [box]), ("probes", [gauge])])
+                         ("obstacle", [box]), ("probes", [gauge]), ("model.enableShifting", False)])
     rows = [r for r in csv.DictReader(open(tmp_path / "probes.csv")) if float(r["time"]) >= 1.0]
     y = np.array([float(r["box_y"]) for r in rows])
     level = np.array([float(r["level"]) for r in rows])
     x = np.array([float(r["box_x"]) for r in rows])
     theta = np.array([float(r["box_theta"]) for r in rows])
     assert abs(np.mean(y - level)) < 0.02 and np.abs(y - level).max() < 0.04
-    assert np.abs(x - 1.0).max() < 0.04 and np.abs(theta).max() < 0.05
+    assert np.abs(x - 1.0).max() < 0.01 and np.abs(theta).max() < 0.01
 
 
 @pytest.mark.parametrize("change, key", [

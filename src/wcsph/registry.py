@@ -19,7 +19,14 @@ A **choice** declares everything the rest of the code needs to know about it:
   CSPM matrix, per-particle sound speed or p/rho^2, the wall particles' volume and density);
   the model reads these flags, never a choice's name;
 * ``nu(q)``: the kinematic viscosity its term acts with, for the viscous time-step limit
-  0.125 h^2 / nu (Morris et al. 1997); None when it limits nothing.
+  0.125 h^2 / nu (Morris et al. 1997); None when it limits nothing;
+* ``passes(ctx, q)``: the passes it adds beyond its terms, each of a kind that says when it
+  runs (``physics``: ``WallVolume`` at the start, ``WallPass`` and ``FluidPass`` before each
+  interaction, ``AfterStepPass`` and ``WallCorrection`` after each step), with the fields
+  they write; the model runs what the selection declares, in slot order;
+* wall models only: ``wall_fields``, the (name, kind) fields the wall set holds, and
+  ``wall_reads``, those the fluid's wall terms read: {None: always, flag: when the selection
+  implies ``flag``} (the wall view follows from them and the wall passes' fields).
 
 ``config`` builds the ``[model]`` schema from these declarations, ``models.wcsph`` builds the
 passes from them, and the README's slot table and every error message name them. Adding a
@@ -84,6 +91,9 @@ class Choice:
     check: Callable = None  # model table -> (key, message) of a bad combination of its values, or None
     nu: Callable = None  # q -> the kinematic viscosity its term acts with: the viscous time-step limit
     implies: frozenset = frozenset()  # what the model provides for it (see IMPLIES)
+    passes: Callable = None  # (ctx, q) -> [WallVolume | WallPass | FluidPass | AfterStepPass | WallCorrection]
+    wall_fields: tuple = ()  # wall models only: (name, kind) of the wall set's fields
+    wall_reads: dict = field(default_factory=dict)  # wall models only: {None | flag: wall fields the terms read}
     boundary: str = None  # wall models only: "particles" or "elements"
     consistent: bool = False  # wall models only: Shepard renormalization, wall pressure interpolated
     slot: str = ""

@@ -10,8 +10,9 @@ Per derivative evaluation (the spec's initialize / interact / finalize):
 
 1. density: summation pass (rho, then p, p/rho^2 and V = m/rho from the EOS), or, with
    continuity density, a map computing p, p/rho^2 and V from the advected rho;
-2. consistent wall model only: each element gets p_b and rho_b from its fluid neighbours;
-3. CSPM only: a pass storing each particle's gradient correction L_i;
+2. the wall passes the selection declares (``physics.WallPass``): the wall particles' no-slip
+   velocity and pressure, the consistent elements' p_b and rho_b from their fluid neighbours;
+3. the fluid passes it declares (``physics.FluidPass``): CSPM's gradient correction L_i;
 4. interaction: one pass over fluid and wall neighbours, the terms of every slot composed
    into one pair function (``physics.interaction`` gives the accumulator);
 5. finalize (the pass's store): Drho/Dt = (-rho <div v> + delta h c0 D) / gamma,
@@ -19,7 +20,9 @@ Per derivative evaluation (the spec's initialize / interact / finalize):
    CSPM, whose correction includes it).
 
 After each time step the corrections run: DPC, XSPH on the positions, shifting, the CSPM
-density re-initialisation, and the elastic bounce and NBVC-PST of boundary elements.
+density re-initialisation, and the elastic bounce and NBVC-PST of boundary elements. Which
+passes exist, what they write and the wall fields they need are the choices' declarations
+(``Choice.passes``, ``Choice.wall_fields``); nothing here tests a choice's name or parameter.
 """
 from collections import namedtuple
 
@@ -27,16 +30,9 @@ import numpy as np
 from numba.extending import register_jitable
 
 from .. import plugins
-from ..physics import AfterStepPass, Ctx, compose
-from ..physics.correction import (make_cspm_boundary, make_cspm_matrix, make_cspm_store, make_shepard_density,
-                                 make_shepard_density_store)
-from ..physics.density import make_akinci_volume
+from ..physics import AfterStepPass, Ctx, FluidPass, WallCorrection, WallPass, WallVolume, compose
 from ..physics.loads import make_element_loads, make_particle_loads
-from ..physics.renormalization import (make_boundary_interpolation, make_boundary_store, make_noslip_velocity,
-                                      make_shepard, make_wall_pressure)
-from ..physics.wall_corrections import make_init as make_wall_init
-from ..physics.wall_corrections import make_store as make_wall_store
-from ..physics.wall_corrections import make_wall_corrections
+from ..physics.renormalization import make_shepard
 
 # The views a pass sees: only the fields the case's terms can read. A view with unused arrays
 # made the 2D WCSPH-BI interaction 5 % slower at 100 k particles and 11 % at 2.5 k (15 fields
@@ -78,6 +74,8 @@ ParticleWallViewFull = namedtuple("ParticleWallViewFull", "x v psi vol rho cell 
 ParticleWallViewPressure = namedtuple("ParticleWallViewPressure", "x v a psi vol rho p pr cell start")
 #: boundary particles as the no-slip velocity pass writes them
 NoSlipWallView = namedtuple("NoSlipWallView", "x v v_ext cell start")
+#: the wall views, smallest first: a case's is the first with every field its walls' terms and passes read
+WALL_VIEWS = (ParticleWallView, ParticleWallViewFull, ParticleWallViewPressure, ElementView)
 #: the kinds of the wall sets' fields a view may lack in a case (a stand-in is passed)
 WALL_FIELDS = {"n": "vector", "elementSize": "scalar", "psi": "scalar", "vol": "scalar", "p": "scalar",
                "rho": "scalar", "pr": "scalar"}
@@ -146,12 +144,8 @@ def _stores(ctx, eos, continuity, consistent, needs_pr, corrected, sound):
         if dim == 3:
             I.dvdt[2, i] = acc[4] * k + acc[7] * ka + P.gz
 
-    @register_jitable
-    def apply_density(i, I, P):
-        I.rho[i] = I.rho_corr[i]
-
     return dict(initialize=initialize, init_scalar=init_scalar, store_density=store_density, init9=init9,
-                finalize=finalize, apply_density=apply_density)
+                finalize=finalize)
 
 
 class WCSPH:
@@ -198,32 +192,19 @@ class WCSPH:
         else:
             fluid_term, wall_term = sel["density"].build(ctx, q)
             self.density_pass = mk(dim, dtype, s["init_scalar"], fluid_term, s["store_density"], pair2=wall_term)
-        if self.boundary == "particles":
-            self.volume_pass = mk(dim, dtype, s["init_scalar"], make_akinci_volume(ctx), _store_psi(ctx))
-        self.noslip_pass = None
-        if self.boundary == "particles" and m["wall_velocity"] == "adami":
-            init_n, pair_n, store_n = make_noslip_velocity(ctx)
-            self.noslip_pass = mk(dim, dtype, init_n, pair_n, store_n)
-        self.wall_pressure_pass = None
-        if self.boundary == "particles" and m["wall_pressure"] == "adami":
-            self.wall_pressure_pass = mk(dim, dtype, *make_wall_pressure(ctx))
-        self.boundary_pass = None
-        if self.consistent:
-            init_b, store_b = make_boundary_store(ctx)
-            self.boundary_pass = mk(dim, dtype, init_b, make_boundary_interpolation(ctx), store_b)
+        # the passes the choices declare beyond their terms, in slot order
+        declared = [p for c in sel.values() if c.passes is not None for p in c.passes(ctx, q)]
+        volume = [p for p in declared if isinstance(p, WallVolume)]
+        self.volume_pass = mk(dim, dtype, volume[0].init, volume[0].pair, volume[0].store) if volume else None
+        self.wall_passes = [(p, mk(dim, dtype, p.init, p.pair, p.store)) for p in declared if isinstance(p, WallPass)]
+        self.fluid_passes = [mk(dim, dtype, p.init, p.fluid, p.store, pair2=p.wall)
+                             for p in declared if isinstance(p, FluidPass)]
+        self.wall_corrections = [mk(dim, dtype, p.init, p.pair, p.store) for p in declared if isinstance(p, WallCorrection)]
         self.load_pass = None
         if self.boundary == "elements":  # the fluid's load on each element (body forces)
             shear = sel["viscous"].build(ctx, q).wall if sel["viscous"].build is not None else []
             self.load_pass = mk(dim, dtype, *make_element_loads(ctx, compose(*shear) if shear else None,
                                                                 self.consistent))
-        self.cspm_pass = None
-        if self.corrected:
-            init_l, store_l = make_cspm_store(ctx)
-            if self.boundary == "elements":
-                wall_m = make_cspm_boundary(ctx)
-            else:  # boundary particles count in the symmetric form only
-                wall_m = make_cspm_matrix(ctx) if m["cspm_form"] == "symmetric" else None
-            self.cspm_pass = mk(dim, dtype, init_l, make_cspm_matrix(ctx), store_l, pair2=wall_m)
 
         fluid, walls = [], []
         for slot in ("density", "pressure", "diffusive", "viscous", "xsph"):
@@ -257,30 +238,18 @@ class WCSPH:
                 t = c.build(ctx, q)
                 if isinstance(t, AfterStepPass):
                     self.after_step_passes.append(t)
-        if self.corrected and self.continuity and m["cspm_density_interval"] > 0:
-            init_d, store_d = make_shepard_density_store(ctx)
-            term = make_shepard_density(ctx)
-            self.after_step_passes.append(AfterStepPass(init_d, term, store_d, s["apply_density"],
-                                               wall=term if self.boundary == "particles" else None,
-                                               every=m["cspm_density_interval"]))
+        self.after_step_passes += [p for p in declared if isinstance(p, AfterStepPass)]
         self.after_step_runs = [
             (c, mk(dim, dtype, c.init, c.fluid, c.store, pair2=c.wall), backend.make_map(c.apply))
             for c in self.after_step_passes]
-        self.wall_correction = None
-        if self.boundary == "elements" and (m["enableElasticBounce"] or m["enableShifting"]):
-            term = make_wall_corrections(ctx, m["enableElasticBounce"], m["elasticBounce"] == "epsilon",
-                                         m["enableShifting"])
-            self.wall_correction = mk(dim, dtype, make_wall_init(ctx), term, make_wall_store(ctx))
         self._placeholders = {}
         self._flags = (self.continuity, self.consistent, self.corrected, bool(self.after_step_passes), self.needs_c)
         self.fluid_view = globals()[_fluid_view_name(self._flags)]
-        psi_only = "wall_volume" not in implied
-        if self.boundary == "elements":
-            self.wall_view = ElementView
-        elif self.wall_pressure_pass is not None:
-            self.wall_view = ParticleWallViewPressure
-        else:
-            self.wall_view = ParticleWallView if psi_only else ParticleWallViewFull
+        # the smallest wall view with what the walls' terms and passes read
+        reads = {f for flag, fields in wall.wall_reads.items() if flag is None or flag in implied for f in fields}
+        for p, _ in self.wall_passes:
+            reads |= set(p.reads) | {f for f, _ in p.writes if not p.velocity}
+        self.wall_view = next(v for v in WALL_VIEWS if reads <= set(v._fields))
         # the wall view with the load the load pass of boundary particles writes
         self.wall_load_view = _with_load(self.wall_view)
 
@@ -294,12 +263,11 @@ class WCSPH:
                 for name, (kind, flag) in FLUID_FIELDS.items() if flag is None or flag in on]
 
     def wall_fields(self):
-        if self.boundary == "particles":
-            extra = [("v_ext", "vector")] if self.noslip_pass is not None else []
-            if self.wall_pressure_pass is not None:
-                extra += [("p", "scalar"), ("pr", "scalar")]
-            return [("psi", "scalar"), ("vol", "scalar"), ("rho", "scalar")] + extra
-        return [("p", "scalar"), ("rho", "scalar")]
+        """(name, kind) of the wall set's fields: the wall model's and its passes' outputs."""
+        fields = dict(self.sel["walls"].wall_fields)
+        for p, _ in self.wall_passes:
+            fields.update(p.writes)
+        return list(fields.items())
 
     def particle_mass(self, dp, h, rho0, kernel_w):
         """``mass`` when given; else the mass that makes the summation density of the initial
@@ -350,7 +318,7 @@ class WCSPH:
         if not walls.n or self.boundary != "particles":
             return
         be = self.backend
-        if self.m["wall_volume"] == "akinci":
+        if self.volume_pass is not None:
             w = self.view(walls, self.wall_view)
             self.volume_pass(w, w, w, P, G)
             psi = be.to_host(walls["psi"])
@@ -388,22 +356,26 @@ class WCSPH:
             self.density_pass(f, f, w, P, G)
             if halo is not None:
                 halo.fluid(self.exchanged["density"])
-        if self.noslip_pass is not None and walls.n:  # the walls' terms read the no-slip velocity
-            self.noslip_pass(self.view(walls, NoSlipWallView), f, f, P, G)
-            if halo is not None:
-                halo.walls(walls, ("v_ext",))
-            w = w._replace(v=walls["v_ext"])
-        if self.wall_pressure_pass is not None and walls.n:  # the walls' pressure from the fluid's
-            self.wall_pressure_pass(w, f, f, P, G)
-            if halo is not None:
-                halo.walls(walls, ("p", "pr"))
-        if self.boundary_pass is not None and walls.n:
-            self.boundary_pass(w, f, f, P, G)
-            if halo is not None:
-                halo.walls(walls, ("p", "rho"))
-        if self.cspm_pass is not None:
-            self.cspm_pass(f, f, w, P, G)
+        if walls.n:
+            w = self._wall_passes(walls, f, w, P, G, halo)
+        for run in self.fluid_passes:
+            run(f, f, w, P, G)
         self.interaction(f, f, w, P, G)
+
+    def _wall_passes(self, walls, f, w, P, G, halo=None, loads=False):
+        """The declared wall passes (those made before the loads, with ``loads``), each
+        refreshing what it wrote on a decomposed run's walls; returns the wall view ``w`` with
+        the velocity a no-slip pass wrote."""
+        plain = self.view(walls, self.wall_view) if loads else w
+        for p, run in self.wall_passes:
+            if loads and not p.loads:
+                continue
+            run(self.view(walls, NoSlipWallView) if p.velocity else plain, f, f, P, G)
+            if halo is not None:
+                halo.walls(walls, tuple(name for name, _ in p.writes))
+            if p.velocity:
+                w = w._replace(v=walls["v_ext"])
+        return w
 
     def wall_loads(self, fluid, walls, P, G):
         """The fluid's load on each wall point (``physics.loads``), written to the walls'
@@ -418,12 +390,7 @@ class WCSPH:
             if self.boundary == "elements":
                 self.load_pass(self.view(walls, LoadView), f, f, P, G)
             else:
-                w = self.view(walls, self.wall_load_view)
-                if self.noslip_pass is not None:
-                    self.noslip_pass(self.view(walls, NoSlipWallView), f, f, P, G)
-                    w = w._replace(v=walls["v_ext"])
-                if self.wall_pressure_pass is not None:
-                    self.wall_pressure_pass(self.view(walls, self.wall_view), f, f, P, G)
+                w = self._wall_passes(walls, f, self.view(walls, self.wall_load_view), P, G, loads=True)
                 self.load_pass(w, f, f, P, G)
         return walls["load"]
 
@@ -449,14 +416,7 @@ class WCSPH:
                 f = self.view(fluid, self.fluid_view)
                 run(f, f, w, P, G)
                 apply(f, P)
-        if self.wall_correction is not None and walls.n:
+        if self.wall_corrections and walls.n:
             w = self.view(walls, self.wall_view)
-            self.wall_correction(self.view(fluid, self.fluid_view), w, w, P, G)
-
-
-def _store_psi(ctx):
-    @register_jitable
-    def store(i, I, P, acc):
-        I.psi[i] = P.rho0 / acc
-
-    return store
+            for run in self.wall_corrections:
+                run(self.view(fluid, self.fluid_view), w, w, P, G)

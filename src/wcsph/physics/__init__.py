@@ -59,6 +59,46 @@ class AfterStepPass:
         self.init, self.fluid, self.store, self.apply, self.wall, self.every = init, fluid, store, apply, wall, every
 
 
+class WallPass:
+    """A pass over the wall points with fluid neighbours, made before each interaction (the
+    wall's no-slip velocity, its pressure, the consistent elements' p and rho): from ``init``
+    to ``store``, which writes the wall fields ``writes`` ((name, kind) pairs; the wall set
+    holds them, a decomposed run refreshes them on its walls) and reads the wall fields
+    ``reads`` besides x and v. ``velocity``: it writes
+    ``v_ext``, which the later wall terms read as the wall's velocity (its view is x, v,
+    v_ext). ``loads``: it is made again before the wall loads (``model.wall_loads``)."""
+
+    def __init__(self, init, pair, store, writes, reads=(), velocity=False, loads=False):
+        self.init, self.pair, self.store, self.writes = init, pair, store, tuple(writes)
+        self.reads, self.velocity, self.loads = tuple(reads), velocity, loads
+
+
+class FluidPass:
+    """A pass over the fluid with fluid neighbours (``fluid``) and wall neighbours (``wall``,
+    or None), made before each interaction (CSPM's correction matrix); its store writes a
+    fluid field the interaction reads."""
+
+    def __init__(self, init, fluid, store, wall=None):
+        self.init, self.fluid, self.store, self.wall = init, fluid, store, wall
+
+
+class WallCorrection:
+    """A pass over the fluid with wall neighbours only, made after each time step, after the
+    ``AfterStepPass`` es (the elastic bounce and NBVC-PST of boundary elements): its store
+    writes the particle's velocity and position itself (each particle reads only walls)."""
+
+    def __init__(self, init, pair, store):
+        self.init, self.pair, self.store = init, pair, store
+
+
+class WallVolume:
+    """The pass that gives each boundary particle its pseudo-mass Psi at the start: over wall
+    neighbours, from ``init`` to ``store`` (which writes ``psi``)."""
+
+    def __init__(self, init, pair, store):
+        self.init, self.pair, self.store = init, pair, store
+
+
 def vector_init(ctx):
     zero = ctx.zero
 

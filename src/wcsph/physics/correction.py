@@ -36,6 +36,7 @@ L_i is stored row by row, dim x dim entries, in the field ``L``.
 from numba.extending import register_jitable
 
 from ..registry import NONNEG, POS, Choice, Param, add, one_of
+from . import AfterStepPass, FluidPass
 
 
 @register_jitable
@@ -153,6 +154,32 @@ def _check(m):
     return None
 
 
+def make_apply_density(ctx):
+    @register_jitable
+    def apply(i, I, P):
+        I.rho[i] = I.rho_corr[i]
+
+    return apply
+
+
+def _passes(ctx, q):
+    """Before each interaction the matrix L_i (over fluid neighbours, and over the walls:
+    boundary elements, or boundary particles in the symmetric form); after every
+    ``cspm_density_interval`` steps (continuity density) the Shepard density re-initialisation."""
+    init, store = make_cspm_store(ctx)
+    if q.boundary == "elements":
+        wall = make_cspm_boundary(ctx)
+    else:  # boundary particles count in the symmetric form only
+        wall = make_cspm_matrix(ctx) if q.m["cspm_form"] == "symmetric" else None
+    out = [FluidPass(init, make_cspm_matrix(ctx), store, wall=wall)]
+    if q.continuity and q.m["cspm_density_interval"] > 0:
+        init_d, store_d = make_shepard_density_store(ctx)
+        term = make_shepard_density(ctx)
+        out.append(AfterStepPass(init_d, term, store_d, make_apply_density(ctx),
+                                 wall=term if q.boundary == "particles" else None, every=q.m["cspm_density_interval"]))
+    return out
+
+
 add("correction", Choice("None", "-", "plain kernel gradient"))
 add("correction", Choice(
     "CSPM", "Chen, Beraun & Carney (1999); matrix form: Bonet & Lok (1999)",
@@ -165,4 +192,4 @@ add("correction", Choice(
             Param("cspm_threshold", 0.1, "(det M_i)^(1/d) below which L_i = I (near-singular M_i; "
                   "M_i = I in the bulk)", check=POS)),
     p_fields=("cspm_min_det",), values=lambda q: {"cspm_min_det": q.m["cspm_threshold"] ** q.dim}, check=_check,
-    implies=frozenset({"corrected", "wall_volume"})))
+    implies=frozenset({"corrected", "wall_volume"}), passes=_passes))

@@ -32,15 +32,25 @@ def make_akinci_density(ctx):
 
 
 def make_akinci_volume(ctx):
-    """Sum over boundary neighbours l of W_kl; Psi_k = rho0 / sum (Akinci et al. 2012 eq. 5)."""
+    """The boundary particles' pseudo-mass Psi_k = rho0 / sum_l W_kl over wall neighbours l
+    (Akinci et al. 2012 eq. 5), as a ``WallVolume``."""
+    from . import WallVolume
 
-    kernel_w = ctx.w
+    kernel_w, zero = ctx.w, ctx.zero
+
+    @register_jitable
+    def init(i, I, P):
+        return zero
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         return acc + kernel_w(r, P)
 
-    return term
+    @register_jitable
+    def store(i, I, P, acc):
+        I.psi[i] = P.rho0 / acc
+
+    return WallVolume(init, term, store)
 
 
 def make_divergence(ctx, corrected=False):
