@@ -143,33 +143,3 @@ def test_wall_pressure_is_exact_in_a_fluid_accelerating_with_the_wall(a_wall, P,
     assert acc[2] > 0
     assert acc[0] / acc[2] == pytest.approx(rho * (g - a_wall) @ (xb - xs), rel=1e-12, abs=1e-9)
 
-
-def test_the_wall_corrections_leave_a_particle_beside_a_convex_corner_alone(P, ctx):
-    """The elastic bounce and NBVC-PST of one element on one particle. A particle just above
-    a floor element, sinking, is bounced and shifted back to its radius; a particle behind the
-    element's plane but beside it (next to the side face of a box, below its top, within
-    r_box of the top face's corner element) is left to the side face's elements: the top
-    face's element once bounced it upwards and pushed it round the corner."""
-    from wcsph.physics.wall_corrections import make_init, make_wall_corrections
-
-    dp = 0.01
-    P = P._replace(dt=1e-4, r_box2=(1.5 * dp) ** 2, min_dist=0.5 * dp, back=0.55 * dp, elastic=1.0)
-    Fluid = namedtuple("Fluid", "x v m rho")
-    Element = namedtuple("Element", "x v n elementSize")
-    term = make_wall_corrections(ctx, True, False, True)
-    init = make_init(ctx)
-    # the top face of a box, normal out of the fluid (into the box): its element at the origin
-    wall = Element(np.zeros((2, 1)), np.zeros((2, 1)), np.array([[0.0], [-1.0]]), np.array([dp]))
-
-    def corrected(x, v):
-        I = Fluid(np.array(x, float).reshape(2, 1), np.array(v, float).reshape(2, 1), np.array([1000 * dp * dp]),
-                  np.array([1000.0]))
-        dx, dy = I.x[0, 0] - wall.x[0, 0], I.x[1, 0] - wall.x[1, 0]
-        return term(0, 0, dx, dy, 0.0, np.hypot(dx, dy), I, wall, P, init(0, I, P))
-
-    above = corrected([0.2 * dp, 0.3 * dp], [0.0, -1.0])  # over the element, sinking fast
-    assert above[1] == pytest.approx(1.0) and above[4] == pytest.approx(0.2 * dp)  # bounced, back to R = dp/2
-    behind = corrected([0.2 * dp, -0.1 * dp], [0.0, -1.0])  # a little behind the element itself
-    assert behind[1] == pytest.approx(1.0) and behind[4] == pytest.approx(0.6 * dp)
-    beside = corrected([1.0 * dp, -0.3 * dp], [0.0, -1.0])  # beside the box's face, past the corner
-    assert beside[:2] == (0.0, -1.0) and beside[3:6] == (0.0, 0.0, 0.0)

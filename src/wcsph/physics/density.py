@@ -4,6 +4,7 @@ discretizations). Slot ``density``."""
 from numba.extending import register_jitable
 
 from ..registry import Choice, add
+from . import WallVolume
 from .interaction import Terms, add_div
 
 
@@ -34,8 +35,6 @@ def make_akinci_density(ctx):
 def make_akinci_volume(ctx):
     """The boundary particles' pseudo-mass Psi_k = rho0 / sum_l W_kl over wall neighbours l
     (Akinci et al. 2012 eq. 5), as a ``WallVolume``."""
-    from . import WallVolume
-
     kernel_w, zero = ctx.w, ctx.zero
 
     @register_jitable

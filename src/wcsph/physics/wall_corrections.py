@@ -27,7 +27,7 @@ def make_wall_corrections(ctx, bounce, epsilon_bounce, shift):
     to the wall than its own radius R_i = (m_i/rho_i)^(1/d) / 2 (TNL-SPH: half the side of the
     cell its volume fills, so the volume does not reach into the wall) is moved along n_b back
     to that distance."""
-    dim, zero, one, four = ctx.dim, ctx.zero, ctx.dtype(1), ctx.dtype(4)
+    dim, zero, one = ctx.dim, ctx.zero, ctx.dtype(1)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
@@ -38,13 +38,8 @@ def make_wall_corrections(ctx, bounce, epsilon_bounce, shift):
         nz = J.n[2, j] if dim == 3 else zero
         d = rx * nx + ry * ny + rz * nz
         dist = -d
-        lat2 = rx * rx + ry * ry + rz * rz - d * d
-        if dist < -P.back or lat2 >= P.r_box2:
+        if dist < -P.back or rx * rx + ry * ry + rz * rz - d * d >= P.r_box2:
             return acc
-        if dist < zero:  # behind the plane: only over the element itself (its half width)
-            size = J.elementSize[j]
-            if four * lat2 >= (size if dim == 3 else size * size):
-                return acc
         if bounce:
             vbz = J.v[2, j] if dim == 3 else zero
             vn = (vx - J.v[0, j]) * nx + (vy - J.v[1, j]) * ny + (vz - vbz) * nz
