@@ -35,13 +35,14 @@ def test_hydrostatic_tank_bottom_pressure():
 
 @pytest.mark.validation  # the same run as wcsph validate's surge-front check
 def test_dam_break_surge_front_martin_moyce(martin_moyce_errors, tmp_path):
-    """Column a = 1 m, 2a high, 100 particles across: the front Z = z/a within 10 % of every
-    Martin & Moyce (1952) point with T = t sqrt(2g/a) <= 2.5."""
+    """The shipped case (a = 1 m, 2a high, 100 particles across, water's viscosity, free-slip
+    walls): the front Z = z/a within 5 % of every Martin & Moyce (1952) point with
+    T = t sqrt(2g/a) <= 3, once the experiment's release delay is fitted (measured 3.5 %)."""
     a, g = 1.0, 9.81
     wcsph.run("dam_break_2d", output=tmp_path, progress=False, overrides=[
-        ("time.end", 2.5 / np.sqrt(2 * g / a)), ("output.vtk", False), ("output.interval", 0.005)])
+        ("time.end", 3.0 / np.sqrt(2 * g / a)), ("output.vtk", False), ("output.interval", 0.005)])
     T, err = martin_moyce_errors(tmp_path / "probes.csv", a)
-    assert np.all(np.abs(err) < 0.10), dict(zip(T, np.round(err, 3)))
+    assert np.all(np.abs(err) < 0.05), dict(zip(T, np.round(err, 3)))
 
 
 def test_dam_break_3d_runs_and_stays_physical(tmp_path):
@@ -54,7 +55,7 @@ def test_dam_break_3d_runs_and_stays_physical(tmp_path):
     ek = [float(r["kinetic_energy"]) for r in rows]
     ep = [float(r["potential_energy"]) for r in rows]
     assert ek[-1] > 0 and ep[-1] < ep[0]
-    # energy can only be dissipated (XSPH, wall friction): Ek gained <= Ep lost
+    # energy can only be dissipated (XSPH, viscosity): Ek gained <= Ep lost
     assert ek[-1] - ek[0] <= (ep[0] - ep[-1]) * 1.01
 
 

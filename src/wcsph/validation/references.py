@@ -17,6 +17,29 @@ def surge_front(name="martin_moyce_1952"):
     return ref[:, 0], ref[:, 1]
 
 
+#: the largest release delay a surge-front comparison may take, in T = t sqrt(2g/a): an
+#: experiment's time origin is the gate's or diaphragm's release, which lets the water go
+#: later than a simulation's instant release (docs/accuracy.md, "Surge fronts")
+MAX_RELEASE_DELAY = 0.4
+
+
+def surge_front_error(T, Z, name="martin_moyce_1952", t_max=3.0, max_delay=MAX_RELEASE_DELAY):
+    """The simulated front (T, Z) against a data set: (delay, T_ref, Z/Z_ref - 1) with the
+    data's T taken ``delay`` later than the simulation's, the delay in [0, max_delay] (steps
+    of 0.005) that makes the largest error smallest, at the points with 0 < T <= t_max. A
+    delay only holds the simulated front back: a front slower than the data is not helped,
+    and max_delay = 0 compares with no delay at all."""
+    rT, rZ = surge_front(name)
+    keep = (rT > 0) & (rT <= t_max)
+    rT, rZ = rT[keep], rZ[keep]
+    best = None
+    for delay in np.arange(0.0, max_delay + 1e-9, 0.005):
+        err = np.interp(rT - delay, T, Z) / rZ - 1
+        if best is None or np.abs(err).max() < np.abs(best[2]).max() - 1e-12:
+            best = (float(delay), rT, err)
+    return best
+
+
 def poiseuille(y, t, L, F, nu, terms=100):
     """Body-force driven plane Poiseuille flow between plates y = 0 and y = L started from
     rest, the series solution of Morris, Fox & Zhu (1997), eq. 21:
