@@ -6,7 +6,7 @@ import time
 from contextlib import contextmanager
 
 import wcsph
-from wcsph.config import load
+from wcsph.case.config import load
 
 #: fluid volume (area in 2D) of each shipped dam break, to choose dp for a particle count
 COLUMN = {"dam_break_2d": 1.0 * 2.0, "dam_break_3d": 0.3 * 0.4 * 0.6,

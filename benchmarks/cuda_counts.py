@@ -27,7 +27,7 @@ def main(argv=None):
     from numba.cuda.simulator.cudadrv import devicearray
 
     import wcsph
-    from wcsph.config import load
+    from wcsph.case.config import load
 
     counts = collections.Counter()
     counting = [False]

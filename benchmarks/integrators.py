@@ -17,7 +17,7 @@ import time
 import numpy as np
 
 import wcsph
-from wcsph.config import load
+from wcsph.case.config import load
 
 RELAXED = {"time.midpointRelaxCoef": 0.7, "time.midpointRelaxCoef_0": 0.7, "time.midpointMaxInterations": 300,
            "time.midpointResidualTolerance": 1e-6}

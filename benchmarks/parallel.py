@@ -36,7 +36,7 @@ def worker(args):
     import numpy as np
 
     import wcsph
-    from wcsph.config import read_toml, resolve, validate
+    from wcsph.case.config import read_toml, resolve, validate
 
     if args.weak:
         data = read_toml(resolve("hydrostatic_2d"))
@@ -49,7 +49,7 @@ def worker(args):
         case = validate(data, src="weak")
     else:
         from _measure import COLUMN
-        from wcsph.config import load
+        from wcsph.case.config import load
 
         case = load("dam_break_2d", [("dp", (COLUMN["dam_break_2d"] / args.n) ** 0.5),
                                      ("parallel.balance", args.balance), ("parallel.axis", "x")])

@@ -13,7 +13,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from wcsph.config import shipped_cases
+from wcsph.case.config import shipped_cases
 
 
 def start(name, cache, out):

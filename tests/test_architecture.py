@@ -15,16 +15,17 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "wcsph"
 DOC = Path(__file__).resolve().parents[1] / "docs" / "architecture.md"
 
-#: the layers of the package, lowest first: a module may import from its own layer and below
+#: the layers of the package, lowest first: a module may import from its own layer and below;
+#: a layer is a top-level module or package (the package is the layer of all its modules)
 LAYERS = [
-    {"errors", "version", "registry", "expressions", "progress", "numba_cache", "threads", "grid", "particles"},
-    {"kernels", "backends", "integrators", "motion", "floating"},
-    {"physics"},
-    {"plugins", "io", "open_boundary", "parallel"},
-    {"config"},
-    {"geometry"},
+    {"errors", "version"},
+    {"backends"},  # compiled loops, particle sets, cell grid, threads, Numba's cache
+    {"physics"},  # registry and slots, kernels, terms, integrators
+    {"io"},  # readers, formulas, VTK, probes, grids, surface, plots
+    {"boundaries"},  # motion, floating bodies, open boundaries
+    {"case"},  # the case file and its geometry
     {"models"},
-    {"run"},
+    {"run"},  # state, stages, loop, MPI, progress
     {"validation", "cli", "__main__", "wcsph"},
 ]
 RANK = {name: k for k, layer in enumerate(LAYERS) for name in layer}
@@ -105,8 +106,8 @@ RUN_BOTH = textwrap.dedent("""
     import json, sys
     import numpy as np
     from wcsph import Simulation
-    from wcsph.config import load
-    from wcsph.plugins import slot_table
+    from wcsph.case.config import load
+    from wcsph.physics.slots import slot_table
 
     def final(term, extra):
         case = load("dam_break_2d_bi", [("dp", 0.02), ("time.max_steps", 30), ("model.ViscousTerm", term)] + extra)
@@ -147,3 +148,13 @@ def test_an_unknown_plugin_module_is_one_line(tmp_path):
                           timeout=300)
     assert proc.returncode != 0
     assert "no_such_module_here" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr[-2000:]
+
+
+def test_the_tests_mirror_the_packages():
+    """tests/<package>/ holds the tests of src/wcsph/<package>/; what spans the whole package
+    (this file) stays at the top."""
+    tests = Path(__file__).resolve().parent
+    dirs = {p.name for p in tests.iterdir() if p.is_dir() and not p.name.startswith((".", "__"))}
+    packages = {p.name for p in SRC.iterdir() if (p / "__init__.py").exists()}
+    assert dirs and dirs <= packages, sorted(dirs - packages)
+    assert not [p.name for p in tests.glob("test_*.py") if p.name != "test_architecture.py"]

@@ -25,7 +25,7 @@ def main():
     scale = np.sqrt(2 * g / a)
     out = Path(args.out)
     overrides = [("dp", args.dp), ("time.end", 3.0 / scale), ("output.vtk", False),
-                 ("output.interval", 0.005)] + [wcsph.config.parse_override(s) for s in args.sets]
+                 ("output.interval", 0.005)] + [wcsph.case.config.parse_override(s) for s in args.sets]
     summary = wcsph.run("dam_break_2d", output=out, overrides=overrides, progress=False)
     with open(out / "probes.csv") as f:
         rows = list(csv.DictReader(f))

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 import wcsph
-from wcsph.config import validate
+from wcsph.case.config import validate
 
 #: (label, [model] table) of the terms compared; each alone, no diffusive term
 TERMS = [

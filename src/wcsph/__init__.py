@@ -1,5 +1,5 @@
 """wcsph: weakly compressible SPH for free-surface flows, on CPU (Numba) and NVIDIA GPUs."""
-from . import numba_cache, threads
+from .backends import numba_cache, threads
 
 import warnings as _warnings
 
@@ -12,7 +12,7 @@ _warnings.filterwarnings("ignore", category=_IRWarning)
 threads.configure()  # before any compiled loop starts Numba's threads
 numba_cache.install()  # an index left by an older wcsph is recompiled, not a traceback
 
-from .config import load, validate
+from .case.config import load, validate
 from .errors import CaseError
 from .errors import OutputError, RunInterrupted, SimulationError
 from .run.simulation import Simulation

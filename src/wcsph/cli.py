@@ -5,7 +5,7 @@ import os
 import sys
 from pathlib import Path
 
-from .config import load, parse_override, read_toml, resolve, shipped_cases
+from .case.config import load, parse_override, read_toml, resolve, shipped_cases
 from .errors import CaseError
 
 
@@ -147,7 +147,7 @@ def _main(argv):
             print(f"{name:20s} {desc}")
         return 0
     if args.command == "slots":
-        from .plugins import slot_table
+        from .physics.slots import slot_table
 
         print(slot_table())
         return 0
@@ -192,7 +192,7 @@ def _main(argv):
             print(f"wcsph: error: {e}", file=sys.stderr)
             return 2
         return 0
-    from . import parallel
+    from .run import parallel
 
     try:
         comm = parallel.world()

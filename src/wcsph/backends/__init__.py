@@ -1,5 +1,7 @@
 """Execution backends. A backend turns the model's jitable physics functions into compiled
-loops (one generic neighbour loop, one per-particle map) and owns memory and sorting."""
+loops (one generic neighbour loop, one per-particle map) and owns memory and sorting; beside
+them what every backend uses: the particle sets (``particles``), the cell grid (``grid``),
+Numba's thread layer (``threads``) and its on-disk cache (``numba_cache``)."""
 
 
 def get_backend(name):

@@ -16,7 +16,7 @@ from collections import namedtuple
 import numpy as np
 from numba.extending import register_jitable
 
-from ..particles import ParticleSet
+from ..backends.particles import ParticleSet
 
 SamplePoints = namedtuple("SamplePoints", "x sum_w sum_rho sum_p sum_c sum_v cell start")
 SampleFluid = namedtuple("SampleFluid", "x v rho p m dvdt cell start")

@@ -17,9 +17,9 @@ import numpy as np
 from numba.extending import register_jitable
 
 from ..backends.cpu import CpuBackend
-from ..grid import Grid
-from ..kernels import SUPPORT, kernel_params, make_kernel
-from ..particles import ParticleSet
+from ..backends.grid import Grid
+from ..physics.kernels import SUPPORT, kernel_params, make_kernel
+from ..backends.particles import ParticleSet
 from .vtk import atomic
 
 #: the kernel factors and the search radius the pass reads

@@ -3,7 +3,7 @@
 ``model.name`` is a preset: it picks each slot's default (``classic``: Becker & Teschner 2007
 with Akinci et al. 2012 walls, density summation, Tait EOS, XSPH on the momentum; ``bi``: the
 WCSPH-BI model of TNL-SPH, continuity density, Cole EOS, boundary elements, Molteni
-diffusion). Any slot may be set in the case; ``plugins.problems`` refuses the combinations the
+diffusion). Any slot may be set in the case; ``slots.problems`` refuses the combinations the
 physics does not allow.
 
 Per derivative evaluation (the spec's initialize / interact / finalize):
@@ -29,7 +29,7 @@ from collections import namedtuple
 import numpy as np
 from numba.extending import register_jitable
 
-from .. import plugins
+from ..physics import slots
 from ..physics import AfterStepPass, Ctx, FluidPass, WallCorrection, WallPass, WallVolume, compose
 from ..physics.loads import make_element_loads, make_particle_loads
 from ..physics.renormalization import make_shepard
@@ -157,7 +157,7 @@ class WCSPH:
         self.dtype = dtype = np.dtype(case["precision"]).type
         self.m = m = case["model"]
         self.name = m["name"]
-        self.sel = sel = plugins.selection(m)
+        self.sel = sel = slots.selection(m)
         self._stepped = [c for c in sel.values() if c.step_values is not None]
         wall = sel["walls"]
         self.boundary, self.consistent = wall.boundary, wall.consistent
@@ -167,7 +167,7 @@ class WCSPH:
         self.corrected = "corrected" in implied
         self.default_integrator = "symplectic_verlet" if self.continuity else "symplectic_euler"
         ctx = self.ctx = Ctx.create(dtype, dim, m["kernel"])
-        self.q = q = plugins.Quantities(m, case["physics"], dim, case["dp"], 0.0, 0.0, 0.0, {}, None,
+        self.q = q = slots.Quantities(m, case["physics"], dim, case["dp"], 0.0, 0.0, 0.0, {}, None,
                                         boundary=self.boundary, conservative=not self.consistent,
                                         corrected=self.corrected, continuity=self.continuity)
         eos_p, q.eos_density, q.sound = sel["eos"].build(ctx, q)
@@ -179,7 +179,7 @@ class WCSPH:
         self.exchanged = {"state": ("x", "v", "rho"), "density": ("rho",) + eos, "settled": ("x", "v", "rho") + eos}
         s = _stores(ctx, eos_p, self.continuity, self.consistent, "pr" in implied,
                     self.corrected, q.sound if self.needs_c else None)
-        from ..geometry import periodic_axes
+        from ..case.geometry import periodic_axes
 
         self.periodic = periodic_axes(case)
 
@@ -275,7 +275,7 @@ class WCSPH:
         if self.m["mass"]:
             return self.m["mass"]
         if not self.continuity:
-            from ..geometry import lattice_density_sum
+            from ..case.geometry import lattice_density_sum
 
             return rho0 / lattice_density_sum(kernel_w, self.dim, dp, h)
         return rho0 * dp ** self.dim
@@ -302,10 +302,10 @@ class WCSPH:
     def params(self, kernel, rho0, c0, h, gravity, dt, kernel_numpy):
         q = self.q
         q.kernel, q.c0, q.rho0, q.h, q.kernel_numpy = kernel, c0, rho0, h, kernel_numpy
-        return plugins.make_params(self.dtype, q, self.sel, gravity, dt)
+        return slots.make_params(self.dtype, q, self.sel, gravity, dt)
 
     def update(self, P, dt, gravity, vmax=0.0):
-        return plugins.update_params(P, self.dtype, self.q, self._stepped, dt, gravity, vmax)
+        return slots.update_params(P, self.dtype, self.q, self._stepped, dt, gravity, vmax)
 
     def initialize(self, fluid, walls, P, G, lattice_mass):
         """Boundary particles' pseudo-masses Psi (then V = Psi/rho0, rho = rho0).

@@ -42,7 +42,7 @@ class Ctx:
 
     @classmethod
     def create(cls, dtype, dim, kernel):
-        from ..kernels import make_kernel
+        from .kernels import make_kernel
 
         dtype = np.dtype(dtype).type
         return cls(dtype, dim, *make_kernel(kernel, dtype))

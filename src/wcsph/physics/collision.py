@@ -18,7 +18,7 @@ import math
 
 from numba.extending import register_jitable
 
-from ..registry import NONNEG, Choice, Param, add
+from .registry import NONNEG, Choice, Param, add
 from . import AfterStepPass, make_apply, make_store_corr, vector_init
 
 

@@ -35,7 +35,7 @@ L_i is stored row by row, dim x dim entries, in the field ``L``.
 """
 from numba.extending import register_jitable
 
-from ..registry import NONNEG, POS, Choice, Param, add, one_of
+from .registry import NONNEG, POS, Choice, Param, add, one_of
 from . import AfterStepPass, FluidPass
 
 

@@ -3,7 +3,7 @@ by the continuity equation Drho/Dt = -rho <div v> (the WCSPH-BI spec's table of 
 discretizations). Slot ``density``."""
 from numba.extending import register_jitable
 
-from ..registry import Choice, add
+from .registry import Choice, add
 from . import WallVolume
 from .interaction import Terms, add_div
 

@@ -4,7 +4,7 @@ x_ji = x_j - x_i = -(dx, dy, dz), so x_ji . grad_i W_ij = -r^2 (dW/dr)/r, positi
 diffuses towards the neighbours'."""
 from numba.extending import register_jitable
 
-from ..registry import NONNEG, Choice, Param, add
+from .registry import NONNEG, Choice, Param, add
 from .interaction import Terms, add_diffusion
 
 DELTA = Param("delta", 0.1, "delta of the diffusive term delta h c0 D_i", check=NONNEG, spec=True)

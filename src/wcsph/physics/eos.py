@@ -7,7 +7,7 @@ import math
 
 from numba.extending import register_jitable
 
-from ..registry import POS, Choice, Param, add
+from .registry import POS, Choice, Param, add
 
 GAMMA = Param("gamma", 7.0, "exponent of the Tait and Cole equations of state", check=POS, table="physics")
 CLAMP = Param("clamp_negative_pressure", True, "clip p at zero (SPlisHSPlasH does so with density summation: "

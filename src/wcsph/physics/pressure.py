@@ -17,7 +17,7 @@ symmetric form, over boundary particles by the mirrored pressure (``physics.corr
 """
 from numba.extending import register_jitable
 
-from ..registry import NONNEG, Choice, Param, add
+from .registry import NONNEG, Choice, Param, add
 from .interaction import Terms, add_accel, add_force
 
 

@@ -32,7 +32,7 @@ import math
 
 from numba.extending import register_jitable
 
-from ..registry import NONNEG, POS, Choice, Param, add
+from .registry import NONNEG, POS, Choice, Param, add
 from . import AfterStepPass
 
 R_TENSILE, N_TENSILE = 0.2, 4

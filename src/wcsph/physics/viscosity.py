@@ -10,7 +10,7 @@ velocity: the no-slip wall of Morris, Fox & Zhu (1997) and Adami, Hu & Adams (20
 """
 from numba.extending import register_jitable
 
-from ..registry import NONNEG, Choice, Param, add
+from .registry import NONNEG, Choice, Param, add
 from .interaction import Terms, add_force
 
 

@@ -4,7 +4,7 @@ terms the other slots' choices use (each choice builds its own wall part for bot
 owns the passes its walls need: the pseudo-mass, no-slip velocity and pressure of boundary
 particles; the interpolated p and rho of consistent elements; the wall corrections (elastic
 bounce, NBVC-PST) of boundary elements."""
-from ..registry import NONNEG, POS, UNIT, Choice, Param, add, one_of
+from .registry import NONNEG, POS, UNIT, Choice, Param, add, one_of
 from . import WallCorrection, WallPass
 from .density import make_akinci_volume
 from .renormalization import make_boundary_interpolation, make_boundary_store, make_noslip_velocity, make_wall_pressure

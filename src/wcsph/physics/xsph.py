@@ -10,7 +10,7 @@
 """
 from numba.extending import register_jitable
 
-from ..registry import UNIT, Choice, Param, add
+from .registry import UNIT, Choice, Param, add
 from . import AfterStepPass, make_apply, make_store_corr, vector_init
 from .interaction import Terms, add_accel
 

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from ..errors import OutputError, RunInterrupted, SimulationError
-from ..progress import Progress
+from .progress import Progress
 from .output import Output
 from .signals import StopRequest
 

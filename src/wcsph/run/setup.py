@@ -5,15 +5,17 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import geometry, parallel
+from ..case import geometry
+from . import parallel
 from ..errors import CaseError
-from ..grid import Grid
-from ..integrators import INTEGRATORS, SPEC_SCHEMES
-from ..kernels import SUPPORT, kernel_numpy, kernel_params, smoothing_length
+from ..backends.grid import Grid
+from ..physics.integrators import INTEGRATORS, SPEC_SCHEMES
+from ..physics.kernels import SUPPORT, kernel_numpy, kernel_params, smoothing_length
 from ..models.wcsph import WCSPH
-from ..motion import Bodies
-from ..open_boundary import OpenBoundaries
-from ..particles import ParticleSet
+from ..boundaries.floating import tank_planes
+from ..boundaries.motion import Bodies
+from ..boundaries.open_boundary import OpenBoundaries
+from ..backends.particles import ParticleSet
 from .state import State
 from .walls import place_walls
 
@@ -75,6 +77,9 @@ def build(case, backend, comm):
     body = wall0.pop("body")
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,
                     _floating_bodies(case), float(np.linalg.norm(case["physics"]["gravity"])))
+    planes = tank_planes(case["tank"], dim)  # the faces a floating body meets
+    for b, f in bodies.floating.items():
+        f.meet(wall0["x"][:, body == b], planes)
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
     walls.add("v", "vector", dtype, be)
     walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)
@@ -158,8 +163,8 @@ def _integrator(case, be, model, warnings):
 
 def _floating_bodies(case):
     """{body index: FloatingBody} of the case's floating wall sources."""
-    from ..config import _wall_sources
-    from ..floating import body_of
+    from ..case.config import _wall_sources
+    from ..boundaries.floating import body_of
     from ..io.readers import read_surface
 
     out = {}

@@ -20,7 +20,7 @@ watches for signals.
 """
 import time
 
-from .. import parallel
+from . import parallel
 from ..backends import get_backend
 from ..errors import CaseError
 from ..io.probes import PointProbes

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from ..integrators import StateView
+from ..physics.integrators import StateView
 
 
 class State:

@@ -38,7 +38,7 @@ def _sim(case, overrides=()):
     import copy
     import warnings
 
-    from ..config import apply_override, load, validate
+    from ..case.config import apply_override, load, validate
     from ..run.simulation import Simulation
 
     with warnings.catch_warnings():
@@ -405,7 +405,7 @@ def wave_flume(quick):
     import csv
     import tempfile
 
-    from ..motion import wave_number
+    from ..boundaries.motion import wave_number
     from .waves import goda_suzuki, zero_crossing
 
     sim = _sim("wave_flume_2d", [("output.vtk", False), ("output.progress", False)])

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from wcsph import Simulation
-from wcsph.config import load
-from wcsph.kernels import kernel_numpy
+from wcsph.case.config import load
+from wcsph.physics.kernels import kernel_numpy
 from wcsph.physics import Ctx
 from wcsph.physics.density import make_summation
 from wcsph.physics.diffusion import make_molteni

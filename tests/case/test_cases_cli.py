@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from wcsph.cli import main
-from wcsph.config import load, shipped_cases, validate
+from wcsph.case.config import load, shipped_cases, validate
 from wcsph.errors import CaseError
 
 BASE = {

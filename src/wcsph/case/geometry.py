@@ -24,10 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import CaseError
-from .expressions import evaluate
-from .io.readers import GeometryError, face_elements, inside, read_points, read_surface, surface_distance
-from .kernels import SUPPORT, smoothing_length
+from ..errors import CaseError
+from ..io.expressions import evaluate
+from ..io.readers import GeometryError, face_elements, inside, read_points, read_surface, surface_distance
+from ..physics.kernels import SUPPORT, smoothing_length
 
 
 def lattice(lo, hi, dp):
@@ -42,7 +42,7 @@ def lattice(lo, hi, dp):
 
 def boundary_kind(case):
     """'particles' or 'elements', after the case's wall model (``model.BCType``)."""
-    from .registry import SLOTS
+    from ..physics.registry import SLOTS
 
     return SLOTS["walls"].choices[case["model"]["BCType"]].boundary
 

@@ -10,7 +10,7 @@ pytest.importorskip("numba.cuda")
 
 SCRIPT = r"""
 import json, sys, numpy as np, wcsph
-from wcsph.config import load
+from wcsph.case.config import load
 name, dp, extra = sys.argv[1], float(sys.argv[2]), json.loads(sys.argv[3])
 res = {}
 for be in ("cpu", "cuda"):

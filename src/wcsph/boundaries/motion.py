@@ -35,8 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import CaseError
-from .registry import NONNEG, one_of
+from ..errors import CaseError
+from ..physics.registry import NONNEG, one_of
 
 #: the ``motion`` table of a wall source, in the config schema's form
 MOTION = {

@@ -97,7 +97,7 @@ def test_version_show_and_closed_pipe(capsys, tmp_path):
     assert shown.startswith('name = "dam_break_2d"')
     case = tmp_path / "mine.toml"
     case.write_text(shown.replace('name = "dam_break_2d"', 'name = "mine"'))
-    from wcsph.config import load
+    from wcsph.case.config import load
 
     assert load(str(case))["name"] == "mine"  # what show prints is a valid case
     assert main(["show", "no_such_case"]) == 2
@@ -168,7 +168,7 @@ def test_all_particles_leaving_the_domain_stops_cleanly(tmp_path, capsys):
 # ------------------------------------------------------------------ defaults that run
 def test_each_integrator_starts_from_its_own_safe_cfl(capsys, tmp_path):
     from wcsph import Simulation
-    from wcsph.config import load
+    from wcsph.case.config import load
 
     expected = {"symplectic_euler": 0.025, "verlet": 0.05, "symplectic_verlet": 0.25, "rk4": 0.5,
                 "rk45": 0.5, "midpoint": 0.5}

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import wcsph
-from wcsph.config import validate
+from wcsph.case.config import validate
 from wcsph.errors import CaseError
-from wcsph.floating import box_properties, mesh_properties, polygon_properties
+from wcsph.boundaries.floating import box_properties, mesh_properties, polygon_properties
 
 
 def test_mass_properties_of_boxes_polygons_and_meshes():
@@ -112,7 +112,7 @@ def test_boundary_particle_loads_carry_the_weight_of_the_water():
     """Classic model (Akinci wall particles, Adami wall pressure), hydrostatic_2d after its
     gravity ramp: the tank's load, the reaction of the wall terms on the fluid summed over its
     wall particles (one pass), is the weight of the water within 0.5 % (measured 0.05 %)."""
-    from wcsph.config import load
+    from wcsph.case.config import load
 
     sim = wcsph.Simulation(load("hydrostatic_2d", [("tank.name", "tank"), ("output.vtk", False)]))
     while sim.t < 1.2:
@@ -124,3 +124,113 @@ def test_boundary_particle_loads_carry_the_weight_of_the_water():
     weight = sim.n_fluid() * sim.mass * 9.81
     assert -np.mean([b["tank_fy"] for b in loads]) == pytest.approx(weight, rel=0.005)
     assert abs(np.mean([b["tank_fx"] for b in loads])) < 1e-3 * weight
+
+
+# ------------------------------------------------------------------ constraints and contact
+def _body(dim, **kw):
+    from wcsph.boundaries.floating import FloatingBody
+
+    inertia = 0.02 if dim == 2 else np.diag([0.02, 0.03, 0.04])
+    return FloatingBody("obstacle[0]", dim, 2.0, [0.5] * dim, inertia, **kw)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_held_axis_does_not_move_and_the_free_ones_do(dim):
+    """Gravity along the last axis and a sideways force: with the last axis held the body only
+    slides (u = F/M t exactly); with the rotation held a torque turns nothing, and in 3D a
+    body free to turn about x alone takes alpha_x = T_x / I_xx and nothing about y and z."""
+    free = [True] * (dim - 1) + [False]
+    b = _body(dim, translation=free, rotation=[False] if dim == 2 else [False, False, False])
+    g = [0.0] * (dim - 1) + [-9.81]
+    F = [1.0] + [0.0] * (dim - 1)
+    T = 0.5 if dim == 2 else np.array([0.5, 0.2, 0.1])
+    for _ in range(100):
+        b.step(0.01, F, T, g)
+    assert b.c[-1] == 0.5 and b.u[-1] == 0.0
+    assert b.u[0] == pytest.approx(1.0 / 2.0 * 1.0, rel=1e-12)
+    if dim == 2:
+        assert b.theta == 0.0 and b.omega == 0.0
+        return
+    assert np.array_equal(b.R, np.eye(3))
+    x_only = _body(3, rotation=[True, False, False])
+    x_only.step(0.01, [0.0, 0.0, 0.0], np.array([0.5, 0.2, 0.1]), [0.0, 0.0, 0.0])
+    assert x_only.alpha[0] == pytest.approx(0.5 / 0.02, rel=1e-12) and x_only.alpha[1] == x_only.alpha[2] == 0.0
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_hinged_body_swings_as_a_compound_pendulum(dim):
+    """Hinged L = 0.3 m above its centre and let go 0.05 rad from hanging (3D: the hinge an
+    axis along z, ``rotation = [false, false, true]``): the distance to the hinge is kept to
+    round-off, and the period is 2 pi sqrt(I_p / (M g L)), I_p = I + M L^2, within 0.2 %
+    (symplectic Euler, 2,000 steps a period)."""
+    L, M, g = 0.3, 2.0, 9.81
+    rot = None if dim == 2 else [False, False, True]
+    b = _body(dim, hinge=[0.5, 0.5 + L] + ([0.5] if dim == 3 else []), rotation=rot)
+    Izz = 0.02 if dim == 2 else 0.04
+    period = 2 * np.pi * np.sqrt((Izz + M * L * L) / (M * g * L))
+    dt = period / 2000
+    grav = [0.0, -g] + ([0.0] if dim == 3 else [])
+    # start 0.05 rad from hanging: turn the body and carry its centre round the hinge
+    a0 = 0.05
+    r = np.array([L * np.sin(a0), -L * np.cos(a0)] + ([0.0] if dim == 3 else []))
+    b.c = b.hinge + r
+    if dim == 2:
+        b.theta = a0
+    else:
+        from wcsph.boundaries.floating import _exp
+
+        b.R = _exp(np.array([0.0, 0.0, a0]))
+    xs, crossings = [], []
+    for k in range(5000):
+        b.step(dt, np.zeros(dim), 0.0 if dim == 2 else np.zeros(3), grav)
+        xs.append(b.c[0] - 0.5)
+        assert np.linalg.norm(b.c - b.hinge) == pytest.approx(L, rel=1e-9)
+        if k and xs[-2] > 0 >= xs[-1]:  # crossing the vertical, swinging one way
+            crossings.append((k + xs[-2] / (xs[-2] - xs[-1])) * dt)
+    measured = np.diff(crossings).mean()
+    assert measured == pytest.approx(period, rel=2e-3), (measured, period)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_body_dropped_in_the_tank_lands_on_its_floor(dim, tmp_path):
+    """The free-fall case run on until the box has fallen 1.2 m onto the floor: it stops on
+    it (the box's bottom on the floor within 1e-9 m, at rest) instead of falling through;
+    without the contact it would be 1.2 m below the floor at the end."""
+    case = _free_fall_case(dim)
+    case["time"]["end"] = 0.7
+    # the water behind a dam at the far end, so that none of it runs under the box
+    case["fluid"] = [{"min": [1.8] + [0.0] * (dim - 1), "max": [2.0] * (dim - 1) + [0.2]}]
+    case["obstacle"].append({"min": [1.65] + [0.0] * (dim - 1), "max": [1.75] + [2.0] * (dim - 2) + [0.5]})
+    case["obstacle"][0].update(min=[0.4] * (dim - 1) + [1.2], max=[0.6] * (dim - 1) + [1.4])
+    wcsph.run(case, output=tmp_path, progress=False)
+    last = list(csv.DictReader(open(tmp_path / "probes.csv")))[-1]
+    z = "xyz"[dim - 1]
+    assert float(last[f"box_{z}"]) - 0.1 == pytest.approx(0.0, abs=1e-9)
+    assert float(last[f"box_v{z}"]) == 0.0
+
+
+def test_contact_keeps_a_tilted_body_inside_every_face():
+    """A turning body thrown at a corner: no wall point ever leaves the tank's faces."""
+    from wcsph.boundaries.floating import tank_planes
+
+    b = _body(2)
+    pts = np.array([[0.4, 0.6, 0.6, 0.4], [0.4, 0.4, 0.6, 0.6]])
+    b.meet(pts, tank_planes({"min": [0.0, 0.0], "max": [1.0, 1.0], "open_top": False}, 2))
+    b.u = np.array([3.0, -2.0])
+    b.omega = 4.0
+    for _ in range(400):
+        b.step(0.002, [0.0, 0.0], 0.0, [0.0, -9.81])
+        x = b.c[:, None] + np.array([[np.cos(b.theta), -np.sin(b.theta)], [np.sin(b.theta), np.cos(b.theta)]]) @ b.points
+        assert x.min() >= -1e-12 and x.max() <= 1.0 + 1e-12
+
+
+@pytest.mark.parametrize("table,message", [
+    ({"density": 500.0, "hinge": [1.5, 1.5], "translation": [True, False]}, "floating.translation"),
+    ({"density": 500.0, "rotation": [True, False]}, "floating.rotation"),
+    ({"density": 500.0, "hinge": [1.5, 1.5], "rotation": [False]}, "floating.rotation"),
+])
+def test_a_bad_constraint_names_its_key(table, message):
+    case = _free_fall_case(2)
+    case["obstacle"][0]["floating"] = table
+    with pytest.raises(CaseError, match=message):
+        validate(case, "<test>")

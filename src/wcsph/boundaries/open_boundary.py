@@ -26,10 +26,10 @@ particles are created or removed): the next thing to move to the device.
 
 import numpy as np
 
-from .expressions import evaluate
-from .io.sampling import PointSampler
-from .kernels import SUPPORT, smoothing_length
-from .registry import one_of
+from ..io.expressions import evaluate
+from ..io.sampling import PointSampler
+from ..physics.kernels import SUPPORT, smoothing_length
+from ..physics.registry import one_of
 
 #: the ``[[open_boundary]]`` table, in the config schema's form
 OPEN_BOUNDARY = {
@@ -75,7 +75,7 @@ def check(src, case, fail):
 
 
 def _check_formula(src, key, text, fail):
-    from .expressions import ExpressionError, check as check_formula
+    from ..io.expressions import ExpressionError, check as check_formula
 
     if isinstance(text, str):
         try:

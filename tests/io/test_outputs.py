@@ -68,7 +68,7 @@ def test_surface_command_refuses_a_directory_that_is_not_a_run(tmp_path, capsys)
 def test_plots_are_in_the_base_install(tmp_path):
     """matplotlib (plots) and scikit-image (surfaces) are base dependencies: the README's first
     command installs them, and ``wcsph plot`` works after it."""
-    deps = tomllib.loads(Path(__file__).parents[1].joinpath("pyproject.toml").read_text())["project"]["dependencies"]
+    deps = tomllib.loads(Path(__file__).parents[2].joinpath("pyproject.toml").read_text())["project"]["dependencies"]
     names = {d.split("==")[0] for d in deps}
     assert {"matplotlib", "scikit-image"} <= names
     out = tmp_path / "run"
@@ -147,7 +147,7 @@ def test_flow_through_a_section_is_the_inlets(tmp_path):
     ({"probes": [{"name": "q", "kind": "flow", "position": [0.5, 0.5]}]}, "probes[0].normal"),
 ])
 def test_grid_and_section_errors_name_the_key(change, key):
-    from wcsph.config import validate
+    from wcsph.case.config import validate
     from wcsph.errors import CaseError
 
     base = {"dim": 2, "dp": 0.1, "time": {"end": 0.1}, "fluid": [{"min": [0.0, 0.0], "max": [1.0, 0.5]}],

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import wcsph
-from wcsph.config import load, validate
+from wcsph.case.config import load, validate
 from wcsph.errors import CaseError
-from wcsph.motion import Bodies
+from wcsph.boundaries.motion import Bodies
 from wcsph.validation import references as ref
 from wcsph.validation import couette, poiseuille, _tg_rate
 
@@ -211,7 +211,7 @@ def test_wall_velocity_and_acceleration_are_the_rates_of_its_position(dim, motio
 def test_wavemaker_strokes_follow_linear_theory():
     """k solves the dispersion relation; Biesel's ratio H/S tends to kh (piston) and kh/2
     (flap) in shallow water and to 2 in deep water; the flume case's piston stroke."""
-    from wcsph.motion import wave_number, wavemaker_stroke
+    from wcsph.boundaries.motion import wave_number, wavemaker_stroke
 
     for T, h in ((1.2, 0.4), (5.0, 0.2), (0.6, 3.0)):
         w = 2 * math.pi / T
@@ -348,7 +348,7 @@ def test_fluid_filling_a_closed_surface_in_an_stl_tank(model, tmp_path):
     short run keeps every particle."""
     tank = _stl(tmp_path / "tank.stl", *_cube([0, 0, 0], [0.4, 0.3, 0.3]))
     water = _stl(tmp_path / "water.stl", *_cube([0, 0, 0], [0.2, 0.3, 0.14]))
-    from wcsph.config import read_toml, resolve
+    from wcsph.case.config import read_toml, resolve
 
     shipped = read_toml(resolve("dam_break_3d" if model == "classic" else "dam_break_3d_bi"))
     case = validate({"dim": 3, "dp": 0.02, "fluid": [{"surface": water}],

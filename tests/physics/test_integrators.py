@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import wcsph
-from wcsph.config import validate
+from wcsph.case.config import validate
 from wcsph.errors import CaseError
 
 T_SMOOTH = 0.02
@@ -162,7 +162,7 @@ def test_midpoint_is_stable_beyond_the_explicit_limit():
 def test_midpoint_parameters_and_log(tmp_path):
     """The spec's midpoint names, in [time] or in [parameters]; iterations and the final
     residual per step in steps.csv and in probes.csv."""
-    case = wcsph.config.load("hydrostatic_2d_bi", [("time.end", 0.01), ("dp", 0.05), ("time.integrator", "MidpointScheme"),
+    case = wcsph.case.config.load("hydrostatic_2d_bi", [("time.end", 0.01), ("dp", 0.05), ("time.integrator", "MidpointScheme"),
                                                   ("parameters.midpointMaxInterations", 7),
                                                   ("time.midpointResidualTolerance", 1e-30)])
     assert case["time"]["midpointMaxInterations"] == 7
@@ -185,7 +185,7 @@ def test_midpoint_parameters_and_log(tmp_path):
 ])
 def test_integrator_settings_are_checked(key, value, message):
     with pytest.raises(CaseError, match=message.replace("[", r"\[").replace(")", r"\)")):
-        wcsph.config.load("hydrostatic_2d_bi", [(key, value)])
+        wcsph.case.config.load("hydrostatic_2d_bi", [(key, value)])
 
 
 # ------------------------------------------------------------------ adaptive RK45
@@ -222,7 +222,7 @@ def test_rk45_error_control(smooth_reference, tmp_path):
 def test_dt_min_stops_cleanly(tmp_path):
     """A step below time.dtMin stops the run with a message naming it, and the last good
     state written."""
-    case = wcsph.config.load("hydrostatic_2d_bi", [("time.end", 0.01), ("dp", 0.05), ("time.dtMin", 1.0)])
+    case = wcsph.case.config.load("hydrostatic_2d_bi", [("time.end", 0.01), ("dp", 0.05), ("time.dtMin", 1.0)])
     with pytest.raises(wcsph.SimulationError, match="dtMin"):
         wcsph.Simulation(case).run(tmp_path, progress=False)
     assert (tmp_path / "fluid_failed.vtu").exists()

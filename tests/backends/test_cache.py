@@ -15,7 +15,7 @@ import sys
 
 import pytest
 
-from wcsph.config import shipped_cases
+from wcsph.case.config import shipped_cases
 
 #: one worker fills the cache and runs every test that reads it
 pytestmark = pytest.mark.xdist_group("numba_cache")

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from wcsph.kernels import SUPPORT, kernel_numpy, kernel_params, make_kernel
+from wcsph.physics.kernels import SUPPORT, kernel_numpy, kernel_params, make_kernel
 
 KP = namedtuple("KP", "h_inv w_norm g_norm")
 CASES = [(name, dim) for name in ("wendland", "cubic_spline") for dim in (2, 3)]

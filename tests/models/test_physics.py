@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import wcsph
-from wcsph.config import load
+from wcsph.case.config import load
 
 
 def test_hydrostatic_tank_bottom_pressure():

@@ -3,7 +3,7 @@
 The schema below is the single source of truth for keys, types, defaults and limits. Every
 problem is reported as a ``CaseError`` naming the file and the dotted key, e.g.
 ``dam.toml: model.xsph_epsilon: expected a number, got 'high'``. The ``[model]`` table is
-built from the plug-in registries (``plugins``).
+built from the plug-in registries (``physics.slots``).
 """
 import copy
 import math
@@ -11,15 +11,15 @@ import re
 import tomllib
 from pathlib import Path
 
-from . import integrators, plugins
-from .errors import CaseError
-from .floating import FLOATING
-from .motion import MOTION
-from .open_boundary import OPEN_BOUNDARY
-from .open_boundary import check as check_open_boundaries
-from .registry import NONNEG, POS, REQUIRED, one_of
+from ..physics import integrators, slots
+from ..errors import CaseError
+from ..boundaries.floating import FLOATING
+from ..boundaries.motion import MOTION
+from ..boundaries.open_boundary import OPEN_BOUNDARY
+from ..boundaries.open_boundary import check as check_open_boundaries
+from ..physics.registry import NONNEG, POS, REQUIRED, one_of
 
-CASES_DIR = Path(__file__).parent / "cases"
+CASES_DIR = Path(__file__).parents[1] / "cases"  # src/wcsph/cases
 
 
 # ---------------------------------------------------------------------------------- schema
@@ -67,7 +67,7 @@ PROBE = {"name": ("str", REQUIRED, None), "kind": ("str", REQUIRED, one_of("pres
 SPEC_PARAMETERS = dict({
     "dp": "dp", "speedOfSound": "physics.speed_of_sound", "rho0": "physics.rho0", "dtInit": "time.dtInit",
     "cfl": "time.cfl", "dtMin": "time.dtMin", "gravity": "physics.gravity",
-}, **integrators.spec_parameters(), **plugins.spec_parameters())
+}, **integrators.spec_parameters(), **slots.spec_parameters())
 
 SCHEMA = {
     "name": ("str", "case", SAFE_NAME),
@@ -93,9 +93,9 @@ SCHEMA = {
         "p0": ("float", 0.0, None),
         "kappa": ("float", 0.0, NONNEG),
         "gravity_ramp_time": ("float", 0.0, NONNEG),
-    }, **plugins.physics_params()), {}, None),
-    # the preset, one key per plug-in slot and every choice's parameters (``plugins``)
-    "model": (plugins.model_schema(), {}, None),
+    }, **slots.physics_params()), {}, None),
+    # the preset, one key per plug-in slot and every choice's parameters (``physics.slots``)
+    "model": (slots.model_schema(), {}, None),
     "time": ({
         "end": ("float", REQUIRED, POS),
         **integrators.time_schema(),
@@ -168,7 +168,7 @@ def _leaf(src, key, kind, value, dim):
             return _leaf(src, key, "float", value, dim)
         if not isinstance(value, str):
             _fail(src, key, f"expected a number or a formula of x, y, z, got {value!r}")
-        from .expressions import ExpressionError, check
+        from ..io.expressions import ExpressionError, check
 
         try:
             check(value)
@@ -184,6 +184,12 @@ def _leaf(src, key, kind, value, dim):
             _fail(src, key, f"expected a list of {dim} true/false values, got {value!r}")
         if dim is not None and len(value) != dim:
             _fail(src, key, f"expected {dim} components (dim = {dim}), got {len(value)}")
+        return value
+    if kind == "rotation_flags":  # one per rotation axis: 2D one (about z), 3D three
+        n = 1 if dim == 2 else 3
+        if not isinstance(value, list) or len(value) != n or not all(isinstance(v, bool) for v in value):
+            _fail(src, key, f"expected a list of {n} true/false value{'s' if n > 1 else ''} (rotation "
+                  f"{'about z' if n == 1 else 'about x, y and z'}), got {value!r}")
         return value
     if kind == "axes":
         if not isinstance(value, list) or not 1 <= len(value) <= (dim or 3) or not all(isinstance(a, list) for a in value):
@@ -259,8 +265,8 @@ def validate(data, src="<case>"):
     data = _lift_parameters(src, data)
     case = _validate(src, "", SCHEMA, data, dim)
     given = data.get("model") if isinstance(data.get("model"), dict) else {}
-    plugins.resolve(case["model"])
-    errors, warnings = plugins.problems(case["model"], set(given))
+    slots.resolve(case["model"])
+    errors, warnings = slots.problems(case["model"], set(given))
     if errors:
         _fail(src, *errors[0])
     if case["polygon"] and dim != 2:
@@ -332,6 +338,11 @@ def validate(data, src="<case>"):
         if fl["inertia"] < 0 or (fl["inertia"] > 0 and dim == 3):
             _fail(src, f"{key}.floating.inertia", "a 2D body's moment of inertia about its centre (> 0); a 3D "
                   "body's inertia tensor comes from its geometry")
+        if fl["hinge"] is not None and fl["translation"] is not None:
+            _fail(src, f"{key}.floating.translation", "a hinged body moves only by turning about its hinge: give "
+                  "the hinge or the free translation axes, not both")
+        if fl["rotation"] is not None and fl["hinge"] is not None and not any(fl["rotation"]):
+            _fail(src, f"{key}.floating.rotation", "a hinged body that cannot turn cannot move: free a rotation")
         if key.startswith("polygon") and not b["closed"]:
             _fail(src, f"{key}.closed", "a floating polygon must be closed (its area gives its mass)")
         if key.startswith("polygon"):

@@ -13,7 +13,7 @@ import pkgutil
 import sys
 
 from . import kernels  # noqa: F401  (registers the kernels)
-from . import physics
+from .. import physics
 from .registry import NONNEG, POS, SLOTS, Param, one_of
 
 #: modules outside the package that register choices, imported after the physics families:

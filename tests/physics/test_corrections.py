@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import wcsph
-from wcsph import plugins
-from wcsph.registry import SLOTS
-from wcsph.config import validate
+from wcsph.physics import slots
+from wcsph.physics.registry import SLOTS
+from wcsph.case.config import validate
 
 
 def _case(model, dim=2, dp=0.05, size=0.5, tank=False, raw=False, **top):
@@ -176,7 +176,7 @@ def test_shifting_keeps_a_box_vortex_free_of_clumps(shifting):
 
 # ------------------------------------------------------------------------------ registries
 def test_every_slot_choice_declares_a_reference_and_the_table_lists_it():
-    table = plugins.slot_table()
+    table = slots.slot_table()
     for s in SLOTS.values():
         for c in s.choices.values():
             assert c.ref and f"`{c.name}`" in table
@@ -188,10 +188,10 @@ def test_readme_slot_table_is_the_registries():
     """The README's table is ``wcsph slots`` (regenerate it with that command)."""
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     a = text.index("<!-- slot-table")
     table = text[text.index("\n", a) + 1:text.index("\n<!-- /slot-table -->")]
-    assert table == plugins.slot_table()
+    assert table == slots.slot_table()
 
 
 def test_parameter_of_an_unselected_term_is_a_warning():

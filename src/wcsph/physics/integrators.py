@@ -21,7 +21,7 @@ from collections import namedtuple
 import numpy as np
 from numba.extending import register_jitable
 
-from .errors import IntegrationError
+from ..errors import IntegrationError
 from .registry import NONNEG, POS, UNIT_OPEN, Param, one_of
 
 StateView = namedtuple("StateView", "x v dvdt rho drhodt p m x_n v_n rho_n dv_t drho_t k w")

@@ -134,7 +134,7 @@ def add(slot_name, choice):
 
 
 # The slots, in the order a derivative evaluation meets them. Their choices are registered by
-# the physics family files (``physics/*.py``); ``plugins`` imports them all.
+# the physics family files (``physics/*.py``); ``slots`` imports them all.
 slot("kernel", "kernel", "Kernel", "smoothing kernel W(r, h), support 2h",
      {"classic": "wendland", "bi": "wendland"})
 slot("eos", "EOS", "Equation of state", "p(rho) and its inverse",

@@ -6,8 +6,8 @@ from hypothesis import given, settings, strategies as st
 from numba.extending import register_jitable
 
 from wcsph.backends.cpu import CpuBackend
-from wcsph.grid import Grid
-from wcsph.particles import ParticleSet
+from wcsph.backends.grid import Grid
+from wcsph.backends.particles import ParticleSet
 
 Set = namedtuple("Set", "x cell start count rsum")
 NP = namedtuple("NP", "rc2")

@@ -25,12 +25,29 @@ reached exactly (a lag of about M_a / M steps, milliseconds). ``added_mass`` C_a
 M_a = C_a rho0 V and I_a = C_a rho0 J (V, J the body's volume and its inertia per unit
 density): 1 by default, 0 for the plain explicit step. ``release``: the body is held where it is
 until then (DualSPHysics' FtPause), so that the fluid settles around it first.
+
+Constraints, as DualSPHysics' floatings have them: ``translation`` and ``rotation`` say which
+degrees of freedom are free (``translation = [true, false]`` keeps a 2D body at its height;
+``rotation = [false]`` keeps it from turning; in 3D ``rotation`` has three flags, about x, y
+and z): a fixed one keeps its velocity and acceleration at zero, and the free ones are solved
+for with the fixed ones' reactions left out (the sub-block of the inertia). ``hinge`` (a point)
+makes the body turn about that point instead of its centre of mass (a flap, a gate, a
+pendulum): the moment of inertia is taken about the hinge (parallel axes), the torque of the
+fluid and of gravity too, and the centre moves on its circle; with ``rotation`` in 3D the
+hinge becomes an axis.
+
+Contact: a body meets the tank's walls (its faces, the open top aside) as rigid, inelastic
+contact: after each step, a wall point of the body that has passed a tank face puts the body
+back on the face (along its free axes) and the body's velocity and acceleration into the face
+are removed. A body resting on the floor stays there; one thrown at a wall stops at it. The
+contact is between the body's wall points and the tank's planes only: two floating bodies,
+or a body and an obstacle or a wall mesh, meet through the fluid between them alone.
 """
 import math
 
 import numpy as np
 
-from .errors import CaseError
+from ..errors import CaseError
 
 #: the ``floating`` table of a wall source
 FLOATING = {
@@ -40,6 +57,9 @@ FLOATING = {
     "inertia": ("float", 0.0, None),
     "release": ("float", 0.0, None),  # held fixed until this time (the fluid settles around it)
     "added_mass": ("float", 1.0, None),  # the relaxation's added mass, in the fluid's mass the body displaces
+    "translation": ("flags", None, None),  # free translation axes (default: all free)
+    "rotation": ("rotation_flags", None, None),  # free rotation (2D: one flag; 3D: about x, y, z)
+    "hinge": ("vec", None, None),  # the point the body turns about (default: its centre of mass)
 }
 
 
@@ -95,7 +115,8 @@ class FloatingBody:
     """A rigid body's mass properties and state; ``pose`` has the interface of ``motion.Motion``
     (displacement of the centre, rotation, velocities, accelerations)."""
 
-    def __init__(self, key, dim, mass, centre, inertia, release=0.0, added_mass=0.0, added_inertia=0.0):
+    def __init__(self, key, dim, mass, centre, inertia, release=0.0, added_mass=0.0, added_inertia=0.0,
+                 translation=None, rotation=None, hinge=None):
         if not mass > 0 or not np.all(np.isfinite(inertia)) or np.any(np.linalg.eigvalsh(np.atleast_2d(inertia)) <= 0):
             raise CaseError(f"{key}.floating: the body needs a positive mass and inertia (got mass {mass:g})")
         self.key, self.dim, self.mass, self.release = key, dim, float(mass), float(release)
@@ -114,6 +135,19 @@ class FloatingBody:
         self.omega = np.zeros(3) if dim == 3 else 0.0
         self.du = np.zeros(dim)
         self.alpha = np.zeros(3) if dim == 3 else 0.0
+        self.hinge = None if hinge is None else np.asarray(hinge, dtype=float)
+        free_t = [True] * dim if translation is None else list(translation)
+        self.free_t = np.array([False] * dim if self.hinge is not None else free_t, dtype=float)
+        free_r = [True] * (1 if dim == 2 else 3) if rotation is None else list(rotation)
+        self.free_r = np.array(free_r, dtype=bool)
+        self.points = np.zeros((dim, 0))  # the wall points about c0 (contact), set by ``meet``
+        self.planes = []  # (n, o): the tank's faces, inside where n . x >= o
+
+    def meet(self, points, planes):
+        """The body's wall points (dim, K) at rest and the faces it must stay inside of
+        ((unit normal, offset): inside where n . x >= offset)."""
+        self.points = np.asarray(points, dtype=float) - self.c0[:, None]
+        self.planes = [(np.asarray(n, dtype=float), float(o)) for n, o in planes]
 
     def pose(self, t):
         """(d, R, u, omega, du, alpha): the centre's displacement from where it started, the
@@ -127,30 +161,95 @@ class FloatingBody:
         ``gravity``, ending at time ``t``; none before the body's ``release`` time. The
         accelerations are relaxed by the artificial added mass M_a and inertia I_a
         (``added_mass``): (M + M_a) a_new = F + M g + M_a a_old, which a body at rest or in
-        free fall does not feel and which keeps a light body stable (see the module)."""
+        free fall does not feel and which keeps a light body stable (see the module). Then
+        the constraints and the contact with the tank's faces."""
         if t is not None and t <= self.release:
             return
         F = np.asarray(force, dtype=float) + self.mass * np.asarray(gravity, dtype=float)
         first = not self.moved
         self.moved = True
         Ma = 0.0 if first else self.added_mass
-        self.du = (F + Ma * self.du) / (self.mass + Ma)
-        self.u = self.u + dt * self.du
-        self.c = self.c + dt * self.u
+        if self.hinge is not None:
+            self._turn_about_hinge(dt, F, torque, Ma, first)
+        else:
+            self.du = self.free_t * (F + Ma * self.du) / (self.mass + Ma)
+            self.u = self.u + dt * self.du
+            self.c = self.c + dt * self.u
+            self._turn(dt, np.asarray(torque, dtype=float), self.inertia, 0.0 if first else self.added_inertia)
+        if self.planes:
+            self._contact()
+
+    def _turn(self, dt, torque, inertia, added):
+        """The rotation's step about the body's centre (2D: ``inertia`` a number; 3D: the
+        tensor in the body's frame), the fixed rotation axes held."""
         if self.dim == 2:
-            Ia = 0.0 if first else self.added_inertia
-            self.alpha = (float(np.ravel(torque)[0]) + Ia * self.alpha) / (self.inertia + Ia)
+            if not self.free_r[0]:
+                self.alpha, self.omega = 0.0, 0.0
+                return
+            self.alpha = (float(np.ravel(torque)[0]) + added * self.alpha) / (inertia + added)
             self.omega = self.omega + dt * self.alpha
             self.theta = self.theta + dt * self.omega
             return
-        Iw = self.R @ self.inertia @ self.R.T
-        Ia = np.zeros((3, 3)) if first else self.R @ self.added_inertia @ self.R.T
-        T = np.asarray(torque, dtype=float) - np.cross(self.omega, Iw @ self.omega)  # Euler's equations
-        self.alpha = np.linalg.solve(Iw + Ia, T + Ia @ self.alpha)
+        Iw = self.R @ inertia @ self.R.T
+        Ia = self.R @ added @ self.R.T if np.ndim(added) else np.zeros((3, 3))
+        T = torque - np.cross(self.omega, Iw @ self.omega)  # Euler's equations
+        self.alpha = _solve_free(Iw + Ia, T + Ia @ self.alpha, self.free_r)
         self.omega = self.omega + dt * self.alpha
         self.R = _exp(dt * self.omega) @ self.R
         u, _, vt = np.linalg.svd(self.R)  # re-orthonormalised (round-off only)
         self.R = u @ vt
+
+    def _turn_about_hinge(self, dt, F, torque, Ma, first):
+        """The step of a body turning about its hinge p: the inertia about p (parallel axes,
+        the added inertia likewise), the torque about p of the fluid and of gravity, the
+        centre carried round p; its velocity omega x r and acceleration alpha x r +
+        omega x (omega x r)."""
+        p, r = self.hinge, self.c - self.hinge
+        if self.dim == 2:
+            Ip = self.inertia + self.mass * (r @ r)
+            Ia = 0.0 if first else self.added_inertia + Ma * (r @ r)
+            Tp = float(np.ravel(torque)[0]) + (r[0] * F[1] - r[1] * F[0])
+            dtheta0 = self.theta
+            self._turn(dt, Tp, Ip, Ia)
+            rot = _rot2(self.theta - dtheta0)
+            r = rot @ r
+            self.c = p + r
+            k_r = np.array([-r[1], r[0]])
+            self.u = self.omega * k_r
+            self.du = self.alpha * k_r - self.omega * self.omega * r
+            return
+        par = lambda m, q: m * ((q @ q) * np.eye(3) - np.outer(q, q))  # noqa: E731 (parallel axes)
+        Rt = self.R.T  # the body frame: the inertia about p, carried to the world frame in _turn
+        Ip = self.inertia + Rt @ par(self.mass, r) @ self.R
+        Ia = np.zeros((3, 3)) if first else self.added_inertia + Rt @ par(Ma, r) @ self.R
+        R0 = self.R
+        self._turn(dt, np.asarray(torque, dtype=float) + np.cross(r, F), Ip, Ia)
+        r = self.R @ R0.T @ r
+        self.c = p + r
+        wr = np.cross(self.omega, r)
+        self.u = wr
+        self.du = np.cross(self.alpha, r) + np.cross(self.omega, wr)
+
+    def _contact(self):
+        """Back inside the tank's faces: the deepest wall point past a face puts the body
+        back on it along the free axes, and the velocity and acceleration into it go."""
+        R = self.R if self.dim == 3 else _rot2(self.theta)
+        x = self.c[:, None] + R @ self.points
+        for n, o in self.planes:
+            depth = float(np.max(o - n @ x)) if x.shape[1] else 0.0
+            if depth <= 0.0:
+                continue
+            m = n * self.free_t
+            if not m @ n > 0.0:
+                continue  # the body cannot move off this face (its axis is held)
+            shift = depth / (m @ n) * m
+            self.c = self.c + shift
+            x = x + shift[:, None]
+            for name in ("u", "du"):
+                w = getattr(self, name)
+                into = float(w @ n)
+                if into < 0.0:
+                    setattr(self, name, w - into * n * self.free_t)
 
     def columns(self, name):
         """The probes.csv columns of this body's state."""
@@ -190,6 +289,16 @@ def _rot2(theta):
     return np.array([[c, -s], [s, c]])
 
 
+def _solve_free(A, b, free):
+    """x with A x = b on the free components and 0 on the others (the fixed ones' reactions
+    left out)."""
+    x = np.zeros(3)
+    if free.any():
+        f = np.flatnonzero(free)
+        x[f] = np.linalg.solve(A[np.ix_(f, f)], b[f])
+    return x
+
+
 def _exp(w):
     """The rotation exp([w]x) (Rodrigues)."""
     a = float(np.linalg.norm(w))
@@ -226,4 +335,19 @@ def body_of(key, table, dim, mesh=None, rho0=1000.0):
         inertia = fl["inertia"]
     ca = fl["added_mass"] * rho0  # M_a = C_a rho0 V, I_a = C_a rho0 J (J: per unit density, about c)
     j_c = j if fl["centre"] is None else (j + vol * (d @ d if dim == 2 else (d @ d) * np.eye(3) - np.outer(d, d)))
-    return FloatingBody(key, dim, mass, c, inertia, fl["release"], ca * vol, ca * j_c)
+    return FloatingBody(key, dim, mass, c, inertia, fl["release"], ca * vol, ca * j_c,
+                        fl["translation"], fl["rotation"], fl["hinge"])
+
+
+def tank_planes(tank, dim):
+    """The faces of the case's ``tank`` table a floating body stays inside of, as (unit
+    normal, offset) with inside where n . x >= offset (the open top left out)."""
+    if tank is None:
+        return []
+    out = []
+    for a in range(dim):
+        e = np.eye(dim)[a]
+        out.append((e, float(tank["min"][a])))
+        if not (a == dim - 1 and tank.get("open_top")):
+            out.append((-e, -float(tank["max"][a])))
+    return out

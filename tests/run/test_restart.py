@@ -8,7 +8,7 @@ import pytest
 
 from wcsph import Simulation
 from wcsph.cli import main
-from wcsph.config import load
+from wcsph.case.config import load
 from wcsph.errors import CaseError
 
 INTEGRATORS = ["symplectic_euler", "verlet", "symplectic_verlet", "rk4", "rk45", "midpoint"]

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import wcsph
-from wcsph import geometry
-from wcsph.config import load, validate
+from wcsph.case import geometry
+from wcsph.case.config import load, validate
 from wcsph.errors import CaseError
-from wcsph.kernels import kernel_numpy
+from wcsph.physics.kernels import kernel_numpy
 
 # one scheme in the default suite, the other three behind the validation marker (the default
 # suite must stay within ten minutes on a cold two-core machine)
