@@ -202,13 +202,16 @@ def test_parameter_of_an_unselected_term_is_a_warning():
 # ------------------------------------------------------------------------------ references
 #: each new option switched on in each model (beside the model's defaults). XSPH on the
 #: positions replaces the classic case's XSPH on the momentum, which holds its particles
-#: together at the impact; the artificial viscosity alpha = 0.5 takes that role.
+#: together at the impact; the artificial viscosity alpha = 0.5 takes that role. CSPM with
+#: the consistent walls and water's viscosity runs away in the dam break (t = 0.14-0.26 s, with
+#: alpha = 0.02 too, depending on the rounding): it runs with alpha = 0.1.
 OPTIONS = {
     "classic": [{"pressure": "Monaghan1992ArtificialViscosity"},
                 {"xsph": "position", "ViscousTerm": "ArtificialViscosity", "alpha": 0.5},
                 {"kernel_correction": "CSPM"}, {"collision": "DPC"}, {"shifting": "DeltaPlus"}, {"shifting": "Lind"},
                 {"density": "continuity", "DiffusiveTerm": "MolteniDiffusiveTerm", "EOS": "ColeEquationOfState"}],
-    "bi": [{"pressure": "Monaghan1992ArtificialViscosity"}, {"xsph": "position"}, {"kernel_correction": "CSPM"},
+    "bi": [{"pressure": "Monaghan1992ArtificialViscosity"}, {"xsph": "position"},
+           {"kernel_correction": "CSPM", "ViscousTerm": "ArtificialViscosity", "alpha": 0.1},
            {"collision": "DPC"}, {"shifting": "DeltaPlus"}, {"shifting": "Lind"}],
 }
 CASES = [(m, o) for m, opts in OPTIONS.items() for o in opts]
