@@ -6,7 +6,7 @@ import time
 from contextlib import contextmanager
 
 import wcsph
-from wcsph.case.config import load
+from wcsph import load  # the package's own name for it, the same in every tree compare_trees.py runs
 
 #: fluid volume (area in 2D) of each shipped dam break, to choose dp for a particle count
 COLUMN = {"dam_break_2d": 1.0 * 2.0, "dam_break_3d": 0.3 * 0.4 * 0.6,
