@@ -209,19 +209,18 @@ class FloatingBody:
             Ip = self.inertia + self.mass * (r @ r)
             Ia = 0.0 if first else self.added_inertia + Ma * (r @ r)
             Tp = float(np.ravel(torque)[0]) + (r[0] * F[1] - r[1] * F[0])
-            dtheta0 = self.theta
+            theta0 = self.theta
             self._turn(dt, Tp, Ip, Ia)
-            rot = _rot2(self.theta - dtheta0)
+            rot = _rot2(self.theta - theta0)
             r = rot @ r
             self.c = p + r
             k_r = np.array([-r[1], r[0]])
             self.u = self.omega * k_r
             self.du = self.alpha * k_r - self.omega * self.omega * r
             return
-        par = lambda m, q: m * ((q @ q) * np.eye(3) - np.outer(q, q))  # noqa: E731 (parallel axes)
         Rt = self.R.T  # the body frame: the inertia about p, carried to the world frame in _turn
-        Ip = self.inertia + Rt @ par(self.mass, r) @ self.R
-        Ia = np.zeros((3, 3)) if first else self.added_inertia + Rt @ par(Ma, r) @ self.R
+        Ip = self.inertia + Rt @ _parallel_axes(self.mass, r) @ self.R
+        Ia = np.zeros((3, 3)) if first else self.added_inertia + Rt @ _parallel_axes(Ma, r) @ self.R
         R0 = self.R
         self._turn(dt, np.asarray(torque, dtype=float) + np.cross(r, F), Ip, Ia)
         r = self.R @ R0.T @ r
@@ -289,6 +288,11 @@ def _rot2(theta):
     return np.array([[c, -s], [s, c]])
 
 
+def _parallel_axes(mass, r):
+    """What a point mass at r adds to a 3D inertia tensor about the origin."""
+    return mass * ((r @ r) * np.eye(3) - np.outer(r, r))
+
+
 def _solve_free(A, b, free):
     """x with A x = b on the free components and 0 on the others (the fixed ones' reactions
     left out)."""
@@ -329,12 +333,12 @@ def body_of(key, table, dim, mesh=None, rho0=1000.0):
     mass, inertia = rho * vol, rho * j
     if fl["centre"] is not None:
         d = np.asarray(fl["centre"], dtype=float) - c
-        inertia = inertia + mass * (d @ d if dim == 2 else (d @ d) * np.eye(3) - np.outer(d, d))
+        inertia = inertia + (mass * (d @ d) if dim == 2 else _parallel_axes(mass, d))
         c = c + d
     if fl["inertia"] > 0:
         inertia = fl["inertia"]
     ca = fl["added_mass"] * rho0  # M_a = C_a rho0 V, I_a = C_a rho0 J (J: per unit density, about c)
-    j_c = j if fl["centre"] is None else (j + vol * (d @ d if dim == 2 else (d @ d) * np.eye(3) - np.outer(d, d)))
+    j_c = j if fl["centre"] is None else (j + (vol * (d @ d) if dim == 2 else _parallel_axes(vol, d)))
     return FloatingBody(key, dim, mass, c, inertia, fl["release"], ca * vol, ca * j_c,
                         fl["translation"], fl["rotation"], fl["hinge"])
 
