@@ -54,7 +54,7 @@ def _parser():
     pl = sub.add_parser("plot", help="PNG plots of a run's probes.csv (energies, surge front, sensors, gauges)")
     pl.add_argument("directory", help="the run's output directory")
     sub.add_parser("cases", help="list the shipped cases")
-    sub.add_parser("slots", help="list the plug-in slots of [model], their choices and parameters (Markdown)")
+    sub.add_parser("slots", help="list the plug-in slots of [model] and the integrators of [time], their choices and parameters (Markdown)")
     va = sub.add_parser("validate", help="run the validation set against its references; write a report",
                         description="Run each validation case (Poiseuille, Couette, Taylor-Green, hydrostatic "
                                     "tanks, a coarse SPHERIC 2; with the full set also the dam breaks against "
@@ -147,9 +147,12 @@ def _main(argv):
             print(f"{name:20s} {desc}")
         return 0
     if args.command == "slots":
+        from .physics.integrators import integrator_table
         from .physics.slots import slot_table
 
         print(slot_table())
+        print()
+        print(integrator_table())
         return 0
     if args.command == "plot":
         return _plot(args.directory)

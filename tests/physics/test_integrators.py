@@ -226,3 +226,79 @@ def test_dt_min_stops_cleanly(tmp_path):
     with pytest.raises(wcsph.SimulationError, match="dtMin"):
         wcsph.Simulation(case).run(tmp_path, progress=False)
     assert (tmp_path / "fluid_failed.vtu").exists()
+
+
+# ------------------------------------------------------------------------------ registry
+def test_readme_integrator_table_is_the_registry():
+    """The README's integrator table is the second part of ``wcsph slots``."""
+    from pathlib import Path
+
+    from wcsph.physics.integrators import integrator_table
+
+    text = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    a = text.index("<!-- integrator-table")
+    assert text[text.index("\n", a) + 1:text.index("\n<!-- /integrator-table -->")] == integrator_table()
+
+
+TOY_SCHEME = '''
+from wcsph.physics.integrators import Integrator, make_symplectic_euler, register
+from wcsph.physics.registry import Param, POS
+
+
+@register
+class ToyEuler(Integrator):
+    name, spec_name, ref = "toy_euler", "ToyEulerScheme", "a test of the registry"
+    params = (Param("toy_scale", 1.0, "a parameter of the toy scheme", check=POS, table="time"),)
+    factory = staticmethod(make_symplectic_euler)
+    order = 1
+
+    def step(self, state, P):
+        state.evaluate(P)
+        self.maps[0](state.view(), P)
+        return float(P.dt)
+'''
+
+RUN_TOY = '''
+import json
+import numpy as np
+from wcsph import Simulation
+from wcsph.case.config import load, validate
+from wcsph.errors import CaseError
+from wcsph.physics.integrators import integrator_table
+
+def final(scheme, extra=()):
+    case = load("dam_break_2d", [("dp", 0.02), ("time.max_steps", 20), ("time.dt", 2e-4),
+                                 ("time.integrator", scheme)] + list(extra))
+    sim = Simulation(case)
+    sim.run()
+    ids, x = sim.host(sim.fluid, "id", "x")
+    return x[:, np.argsort(ids)]
+
+toy = final("ToyEulerScheme", [("time.toy_scale", 2.0)])
+ref = final("symplectic_euler")
+try:
+    load("dam_break_2d", [("time.toy_scale", -1.0)])
+    bad = ""
+except CaseError as e:
+    bad = str(e)
+print(json.dumps({"dx": float(np.abs(toy - ref).max()), "listed": "`toy_euler`" in integrator_table(), "bad": bad}))
+'''
+
+
+def test_a_new_integrator_is_one_class_plus_register(tmp_path):
+    """A scheme in a plug-in module: its names and its parameter enter ``[time]`` (a bad
+    value is refused with its key), it is listed, and it runs (here symplectic Euler again,
+    so the positions are those of ``symplectic_euler`` bit for bit)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "toy_scheme.py").write_text(TOY_SCHEME)
+    env = dict(os.environ, WCSPH_PLUGINS="toy_scheme",
+               PYTHONPATH=os.pathsep.join([str(tmp_path), os.environ.get("PYTHONPATH", "")]))
+    proc = subprocess.run([sys.executable, "-c", RUN_TOY], capture_output=True, text=True, env=env, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["listed"] and out["dx"] == 0.0, out
+    assert "time.toy_scale" in out["bad"] and "positive" in out["bad"], out

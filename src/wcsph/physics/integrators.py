@@ -267,9 +267,30 @@ def make_midpoint(dim, continuity, dtype):
 _SAVED = (("x_n", "vector", True), ("v_n", "vector", True), ("rho_n", "scalar", True))
 
 
+#: the registered schemes, by name (``register``); ``[time]`` is built from their declarations
+INTEGRATORS = {}
+#: the spec's IntegrationScheme names, to the registered names
+SPEC_SCHEMES = {}
+
+
+def register(cls):
+    """Register an integrator class: it declares its ``name``, the spec's name for it
+    (``spec_name``, or None), the reference it follows (``ref``) and its ``[time]``
+    parameters (``params``). A new scheme is a class plus this decorator."""
+    if cls.name in INTEGRATORS or (cls.spec_name and cls.spec_name in SPEC_SCHEMES):
+        raise ValueError(f"integrator {cls.name!r} registered twice")
+    INTEGRATORS[cls.name] = cls
+    if cls.spec_name:
+        SPEC_SCHEMES[cls.spec_name] = cls.name
+    return cls
+
+
 class Integrator:
     """A scheme as a sequence of derivative evaluations and per-particle maps."""
 
+    name = None  # its value of ``time.integrator``
+    spec_name = None  # the spec's IntegrationScheme name for it, if the spec has it
+    ref = ""  # the paper its update follows
     params = ()  # its parameters (``Param`` in the ``[time]`` table); the settings it reads
     fields = ()  # per-particle arrays the scheme keeps: (name, kind, scratch)
     order = None  # formal order of accuracy
@@ -319,7 +340,9 @@ class Integrator:
         self.stats = dict(state["stats"])
 
 
+@register
 class SymplecticEuler(Integrator):
+    name, spec_name, ref = 'symplectic_euler', None, 'Becker & Teschner (2007)'
     factory = staticmethod(make_symplectic_euler)
     order = 1
     stable_cfl, safe_cfl, summation_cfl = 0.05, 0.025, 0.25
@@ -330,12 +353,14 @@ class SymplecticEuler(Integrator):
         return float(P.dt)
 
 
+@register
 class Verlet(Integrator):
-    params = (Param("verlet_euler_interval", 40, "steps between Verlet's explicit Euler steps (0: never)", kind="int",
-                    check=NONNEG, table="time"),)
     """Verlet with an explicit Euler step every ``verlet_euler_interval`` steps (f_ES, 40 by
     default; 0: only the first step). v and rho of the previous step travel with the
     particles, so they are not scratch."""
+    name, spec_name, ref = 'verlet', 'VerletScheme', 'Monaghan (1989); Crespo et al. (2015)'
+    params = (Param("verlet_euler_interval", 40, "steps between Verlet's explicit Euler steps (0: never)", kind="int",
+                    check=NONNEG, table="time"),)
     factory = staticmethod(make_verlet)
     fields = (("v_n", "vector", False), ("rho_n", "scalar", False))
     order = 2
@@ -356,7 +381,9 @@ class Verlet(Integrator):
         return float(P.dt)
 
 
+@register
 class SymplecticVerlet(Integrator):
+    name, spec_name, ref = 'symplectic_verlet', 'SymplecticVerletScheme', 'Leimkuhler, Reich & Skeel (1996)'
     factory = staticmethod(make_symplectic_verlet)
     fields = _SAVED
     order = 2
@@ -455,7 +482,9 @@ class RungeKutta(Integrator):
             P = state.params_for(new)
 
 
+@register
 class RK4(RungeKutta):
+    name, spec_name, ref = 'rk4', None, 'Kutta (1901)'
     """The classic fourth-order Runge-Kutta scheme (Kutta 1901), four evaluations a step."""
     ORDER = 4
     stable_cfl, safe_cfl = 1.0, 0.5
@@ -463,11 +492,13 @@ class RK4(RungeKutta):
     b = [1 / 6, 1 / 3, 1 / 3, 1 / 6]
 
 
+@register
 class RK45(RungeKutta):
-    params = (Param("rk45_tolerance", 1e-6, "largest scaled local error of an accepted step", check=POS, table="time"),)
     """Dormand & Prince (1980) RK5(4)7M: fifth-order solution, fourth-order embedded error
     estimate, seven evaluations a step (the first-same-as-last property is not used: the
     particles are re-sorted between steps)."""
+    name, spec_name, ref = 'rk45', 'RK45', 'Dormand & Prince (1980)'
+    params = (Param("rk45_tolerance", 1e-6, "largest scaled local error of an accepted step", check=POS, table="time"),)
     ORDER = 5
     safe_cfl = 0.5  # the error control lowers the step as needed
     A = [[],
@@ -481,7 +512,9 @@ class RK45(RungeKutta):
     b_hat = [5179 / 57600, 0.0, 7571 / 16695, 393 / 640, -92097 / 339200, 187 / 2100, 1 / 40]
 
 
+@register
 class ImplicitMidpoint(Integrator):
+    name, spec_name, ref = 'midpoint', 'MidpointScheme', 'Cercos-Pita et al. (2024), the WCSPH-BI spec'
     """Implicit midpoint (IMP), as the WCSPH-BI spec writes it after Cercos-Pita et al.
     (2024): with y = (x, v, rho) and f its time derivative,
     y_n+1 = y_n + dt f(y_n+1/2), y_n+1/2 = y_n + dt/2 f(y_n+1/2), solved by a relaxed
@@ -591,11 +624,6 @@ class ImplicitMidpoint(Integrator):
         return float(P.dt)
 
 
-INTEGRATORS = {"symplectic_euler": SymplecticEuler, "verlet": Verlet, "symplectic_verlet": SymplecticVerlet,
-               "midpoint": ImplicitMidpoint, "rk4": RK4, "rk45": RK45}
-#: the spec's IntegrationScheme names
-SPEC_SCHEMES = {"MidpointScheme": "midpoint", "VerletScheme": "verlet",
-                "SymplecticVerletScheme": "symplectic_verlet", "RK45": "rk45"}
 
 
 def time_schema():
@@ -611,3 +639,17 @@ def time_schema():
 def spec_parameters():
     """The spec's runtime parameter names of the integrators and where they live in the case."""
     return {p.key: p.dotted for cls in INTEGRATORS.values() for p in cls.params if p.spec}
+
+
+def integrator_table():
+    """Markdown: every registered scheme, its names, the reference it follows and its
+    ``[time]`` parameters (``wcsph slots`` prints it after the model's slots)."""
+    rows = ["| `time.integrator` | spec name | follows | order | evaluations a step | parameters (default) |",
+            "|---|---|---|---|---|---|"]
+    for name, cls in INTEGRATORS.items():
+        ps = ", ".join(f"`{p.key}` ({p.default!r})" for p in cls.params)
+        order = getattr(cls, "ORDER", cls.order)
+        evals = len(cls.b) if getattr(cls, "b", None) else cls.evaluations
+        rows.append(f"| `{name}` | {f'`{cls.spec_name}`' if cls.spec_name else ''} | {cls.ref} | {order} | "
+                    f"{evals}{' per iteration' if cls is ImplicitMidpoint else ''} | {ps} |")
+    return "\n".join(rows)
