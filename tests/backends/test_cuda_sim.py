@@ -104,3 +104,55 @@ def test_device_counting_sort_and_reduction_in_simulator():
     env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
     r = subprocess.run([sys.executable, "-c", SORT_SCRIPT], capture_output=True, text=True, env=env, timeout=600)
     assert r.returncode == 0 and r.stdout.strip().endswith("ok"), r.stderr[-3000:]
+
+
+COUNTS = os.path.join(os.path.dirname(__file__), "..", "..", "benchmarks", "cuda_counts.py")
+
+
+@pytest.mark.parametrize("name,dp", [("dam_break_2d_bi", 0.05),
+                                     pytest.param("dam_break_2d", 0.1, marks=pytest.mark.validation)])
+def test_a_cuda_step_reads_the_device_once(name, dp):
+    """Counted in the simulator (``benchmarks/cuda_counts.py``) over steps after the warm-up,
+    with the adaptive time step: one device-to-host copy per step (the check, which the next
+    step's size needs; the sort learns from it that nobody left), no allocation and no upload.
+    Launches are held at today's count (the issue's target of 8 is not reached)."""
+    r = subprocess.run([sys.executable, COUNTS, name, "--dp", str(dp), "--steps", "2", "--json"], capture_output=True,
+                       text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    c = json.loads(r.stdout.strip().splitlines()[-1])
+    assert c["fluid"] > 50
+    assert c.get("device->host copy", 0) == 1, c
+    assert c.get("allocation", 0) == 0 and c.get("host->device copy", 0) == 0, c
+    assert c["launches"] <= 27, c
+
+
+LEAVING = r"""
+import json, numpy as np, wcsph
+from wcsph.case.config import validate
+res = {}
+for be in ("cpu", "cuda"):
+    case = validate({"name": "leaving", "dim": 2, "dp": 0.1, "precision": "float64",
+                     "fluid": [{"min": [0.1, 0.0], "max": [0.6, 0.5], "velocity": ["30.0", "0.0"]}],
+                     "domain": {"min": [-0.2, -0.2], "max": [0.6, 0.7]}, "model": {"name": "bi"},
+                     "physics": {"gravity": [0.0, -9.81], "speed_of_sound": 100.0},
+                     "time": {"end": 1.0, "max_steps": 8}, "output": {"progress": False}})
+    sim = wcsph.Simulation(case, backend=be)
+    sim.run()
+    x, ids = sim.host(sim.fluid, "x", "id")
+    res[be] = (x[:, np.argsort(ids)], sim.fluid.n, sim.dropped, sim.t)
+c, g = res["cpu"], res["cuda"]
+print(json.dumps({"n": [c[1], g[1]], "dropped": [c[2], g[2]], "t": [c[3], g[3]],
+                  "dx": float(np.abs(c[0] - g[0]).max()) if c[1] == g[1] else None}))
+"""
+
+
+def test_particles_leaving_the_domain_on_the_device():
+    """A block thrown out of the domain at 30 m/s, adaptive time step (five particles leave at
+    the sixth of eight steps): the device drops the same particles at the same step as the CPU (the sort reads the count back only after a
+    check that saw a particle outside), and the survivors are where the CPU's are."""
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    r = subprocess.run([sys.executable, "-c", LEAVING], capture_output=True, text=True, env=env, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    res = json.loads(r.stdout.strip().splitlines()[-1])
+    assert res["dropped"][0] == res["dropped"][1] > 0 and res["n"][0] == res["n"][1], res
+    assert res["t"][0] == res["t"][1] and res["dx"] < 1e-12, res

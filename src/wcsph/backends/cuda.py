@@ -9,7 +9,10 @@ Everything stays on the device, with numba-cuda alone (no CuPy), the same in the
   cell's indices put in increasing order (the scatter's order depends on the threads' timing;
   after it the permutation is exactly the CPU's stable argsort), then the gather of every field;
 * reductions (the step's largest speed and acceleration, a sum of residuals) are a block
-  reduction in shared memory and one final block; only the few results cross to the host.
+  reduction in shared memory and one final block; only the few results cross to the host;
+* the check after a step also counts the particles outside the grid: when none is, the next
+  sort of those positions keeps every particle without reading the count back, so a step
+  whose time step needs the check copies one small array to the host, once.
 
 The grid constants are uploaded once per grid.
 """
@@ -29,11 +32,10 @@ def _blocks(n):
     return max(1, math.ceil(n / THREADS))
 
 
-@cuda.jit
-def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
-    i = cuda.grid(1)
-    if i >= x.shape[1]:
-        return
+@cuda.jit(device=True)
+def _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k):
+    """The cell of particle i, or ``ncells`` outside the grid's inner cells (the CPU
+    backend's ``_cell_ids``)."""
     cx = int(math.floor((x[0, i] - origin[0]) * inv_cell[0]))
     cy = int(math.floor((x[1, i] - origin[1]) * inv_cell[1]))
     inside = k <= cx < nx - k and k <= cy < ny - k
@@ -41,7 +43,14 @@ def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
     if x.shape[0] == 3:
         cz = int(math.floor((x[2, i] - origin[2]) * inv_cell[2]))
         inside = inside and k <= cz < nz - k
-    cell[i] = cx + nx * (cy + ny * cz) if inside else ncells
+    return cx + nx * (cy + ny * cz) if inside else ncells
+
+
+@cuda.jit
+def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
+    i = cuda.grid(1)
+    if i < x.shape[1]:
+        cell[i] = _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k)
 
 
 @cuda.jit
@@ -194,11 +203,13 @@ def _scatter2(src, idx, dst):
 
 
 @cuda.jit
-def _speeds(x, v, a, out):
-    """out[0, i] = |v|^2, out[1, i] = |a|^2, out[2, i] = 1 if anything is non-finite."""
+def _speeds(x, v, a, out, origin, inv_cell, nx, ny, nz, ncells, k):
+    """out[0, i] = |v|^2, out[1, i] = |a|^2, out[2, i] = 1 if anything is non-finite,
+    out[3, i] = 1 if the particle is outside the grid (the next sort drops it)."""
     i = cuda.grid(1)
     if i >= x.shape[1]:
         return
+    out[3, i] = 1.0 if _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k) == ncells else 0.0
     s = 0.0
     q = 0.0
     ok = True
@@ -434,7 +445,13 @@ class CudaBackend:
             if drop is not None:
                 _drop_cells[_blocks(n), THREADS](cell, drop, g.ncells)
         perm, start_d = _counting_sort(cell, g.ncells, pset.__dict__.setdefault("_sort_work", {}))
-        n_in = int(start_d[g.ncells:g.ncells + 1].copy_to_host()[0])
+        stays = pset.__dict__.get("_stays")
+        pset.__dict__["_stays"] = None
+        pset.__dict__["_grid"] = grid
+        if drop is None and stays is not None and stays[0] is x and stays[1] == n and stays[2] is grid:
+            n_in = n  # the last check found these positions inside the grid: no read
+        else:
+            n_in = int(start_d[g.ncells:g.ncells + 1].copy_to_host()[0])
         pset["start"] = start_d
         pset["_perm"] = perm  # new position -> old (a decomposed run maps its halo lists through it)
         dropped = n - n_in
@@ -482,10 +499,35 @@ class CudaBackend:
         return cuda.to_device(np.ascontiguousarray(idx, dtype=np.int64))
 
     def check(self, pset, owned=None):
+        """As the CPU backend's ``check``. In the same reduction, and the same copy to the
+        host, the particles outside the grid of the set's last sort are counted: when there
+        are none, the next sort (of these positions) knows its count without asking the
+        device."""
         n = pset.n
+        pset.__dict__["_stays"] = None
         if n == 0:
             return 0.0, 0.0, 0
-        out = _scratch((3, n))
-        _speeds[_blocks(n), THREADS](pset["x"], pset["v"], pset["dvdt"], out)
-        vmax2, amax2, bad = _reduce_rows(out, ("max", "max", "sum"), owned)
-        return vmax2, amax2, int(bad)
+        grid = pset.__dict__.get("_grid")
+        if grid is None:  # not sorted yet: every particle counts as inside, and nothing is promised
+            vmax2, amax2, bad, _ = self._check(pset, owned, None)
+            return vmax2, amax2, bad
+        vmax2, amax2, bad, outside = self._check(pset, owned, grid)
+        if outside == 0 and owned is None:
+            pset.__dict__["_stays"] = (pset["x"], n, grid)  # held, not by id: no reuse of a freed id
+        return vmax2, amax2, bad
+
+    @staticmethod
+    def _check(pset, owned, grid):
+        n = pset.n
+        x = pset["x"]
+        if grid is None:
+            origin = inv = cuda.to_device(np.zeros(3, dtype=x.dtype))
+            nx = ny = nz = ncells = k = 2 ** 40  # no cell is out of range
+        else:
+            g = grid.view()
+            origin, inv = _on_device(grid, np.dtype(x.dtype).type)
+            nx, ny, nz, ncells, k = g.nx, g.ny, g.nz, g.ncells, g.k
+        out = _scratch((4, n))
+        _speeds[_blocks(n), THREADS](x, pset["v"], pset["dvdt"], out, origin, inv, nx, ny, nz, ncells, k)
+        vmax2, amax2, bad, outside = _reduce_rows(out, ("max", "max", "sum", "sum"), owned)
+        return vmax2, amax2, int(bad), int(outside)
