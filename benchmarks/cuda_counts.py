@@ -24,13 +24,19 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=JSON",
                     help="a case override, e.g. --set time.dt=1e-4 (the value read as JSON)")
     ap.add_argument("--json", action="store_true", help="print the counts per step as one JSON line")
+    ap.add_argument("--threads", type=int, default=0,
+                    help="threads per block (default the backend's; fewer run faster in the simulator, same counts)")
     a = ap.parse_args(argv)
 
     from numba.cuda.simulator import kernel
     from numba.cuda.simulator.cudadrv import devicearray
 
     import wcsph
+    import wcsph.backends.cuda as cuda_backend
     from wcsph.case.config import load
+
+    if a.threads:
+        cuda_backend.THREADS = a.threads
 
     counts = collections.Counter()
     counting = [False]
