@@ -54,6 +54,38 @@ def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
 
 
 @cuda.jit
+def _cell_ids_counted(x, origin, inv_cell, nx, ny, nz, ncells, k, cell, count):
+    """``_cell_ids`` and ``_histogram`` in one launch."""
+    i = cuda.grid(1)
+    if i < x.shape[1]:
+        c = _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k)
+        cell[i] = c
+        cuda.atomic.add(count, c, 1)
+
+
+@cuda.jit
+def _gather_all1(src, perm, dst):
+    """dst[f][k] = src[f][perm[k]] for every 1D field f of a tuple of arrays of one type: one
+    launch for all the fields of a kind."""
+    k = cuda.grid(1)
+    if k < dst[0].size:
+        j = perm[k]
+        for f in range(len(src)):
+            dst[f][k] = src[f][j]
+
+
+@cuda.jit
+def _gather_all2(src, perm, dst):
+    """``_gather_all1`` for (components, particles) fields."""
+    k = cuda.grid(1)
+    if k < dst[0].shape[1]:
+        j = perm[k]
+        for f in range(len(src)):
+            for d in range(src[f].shape[0]):
+                dst[f][d, k] = src[f][d, j]
+
+
+@cuda.jit
 def _gather1(src, perm, dst):
     k = cuda.grid(1)
     if k < dst.size:
@@ -87,13 +119,15 @@ def _chunk_sums(a, chunk, sums):
 
 @cuda.jit
 def _chunk_scan(a, chunk, offsets, out):
-    """out[k] = offsets[t] + sum of a over the chunk's elements before k (exclusive)."""
+    """out[k] = offsets[t] + sum of a over the chunk's elements before k (exclusive); a is
+    left zero (the histogram's counts, consumed: the next sort counts from zero)."""
     t = cuda.grid(1)
     if t * chunk < a.size:
         s = offsets[t]
         for k in range(t * chunk, min((t + 1) * chunk, a.size)):
             out[k] = s
             s += a[k]
+            a[k] = 0
 
 
 @cuda.jit
@@ -118,13 +152,6 @@ def _order_cells(start, perm):
             perm[m + 1] = v
 
 
-@cuda.jit
-def _fill(a, value):
-    i = cuda.grid(1)
-    if i < a.size:
-        a[i] = value
-
-
 _SCRATCH = {}
 
 
@@ -138,10 +165,11 @@ def _scratch(shape, dtype=np.float64):
 
 
 def _buffer(work, name, n):
-    """The int64 device array ``name`` of length n from the dict ``work`` (allocated once)."""
+    """The int64 device array ``name`` of length n from the dict ``work``, allocated (zero)
+    once."""
     a = work.get(name)
     if a is None or a.size != n:
-        a = work[name] = cuda.device_array(n, dtype=np.int64)
+        a = work[name] = cuda.to_device(np.zeros(n, dtype=np.int64))
     return a
 
 
@@ -149,25 +177,23 @@ def _exclusive_scan(a, out, work, level=0):
     """out[k] = sum of a[:k] (int64 device arrays of one length): chunks of SCAN_CHUNK summed,
     the sums scanned the same way (recursively), then each chunk scanned from its offset."""
     nchunks = math.ceil(a.size / SCAN_CHUNK)
-    offsets = _buffer(work, f"offsets{level}", nchunks)
-    if nchunks <= 1:
-        _fill[1, 1](offsets, 0)
-    else:
+    offsets = _buffer(work, f"offsets{level}", nchunks)  # one chunk: its offset, 0 since allocated
+    if nchunks > 1:
         sums = _buffer(work, f"sums{level}", nchunks)
         _chunk_sums[_blocks(nchunks), THREADS](a, SCAN_CHUNK, sums)
         _exclusive_scan(sums, offsets, work, level + 1)
     _chunk_scan[_blocks(nchunks), THREADS](a, SCAN_CHUNK, offsets, out)
 
 
-def _counting_sort(cell, ncells, work):
+def _counting_sort(cell, ncells, work, counted=False):
     """(perm, start) for cell ids in [0, ncells] (ncells: outside the grid): perm the stable
     order by cell (new position -> old index), start[c] the first position of cell c,
     start[ncells + 1] = n. All on the device, in the buffers of the dict ``work`` (one per
-    particle set: its ``start`` and ``_perm`` are these)."""
+    particle set: its ``start`` and ``_perm`` are these). ``counted``: the histogram
+    ``work["count"]`` is already made (``_cell_ids_counted``); it is zero after the call."""
     n = cell.size
     count = _buffer(work, "count", ncells + 2)
-    _fill[_blocks(ncells + 2), THREADS](count, 0)
-    if n:
+    if n and not counted:
         _histogram[_blocks(n), THREADS](cell, count)
     start = _buffer(work, "start", ncells + 2)
     _exclusive_scan(count, start, work)
@@ -440,11 +466,14 @@ class CudaBackend:
         if "cell" not in pset.arrays or pset["cell"].shape[0] != n:
             pset["cell"] = cuda.device_array(n, dtype=np.int64)
         cell = pset["cell"]
-        if n:
+        work = pset.__dict__.setdefault("_sort_work", {})
+        if n and drop is None:  # the cell ids and their histogram in one launch
+            count = _buffer(work, "count", g.ncells + 2)
+            _cell_ids_counted[_blocks(n), THREADS](x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell, count)
+        elif n:
             _cell_ids[_blocks(n), THREADS](x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell)
-            if drop is not None:
-                _drop_cells[_blocks(n), THREADS](cell, drop, g.ncells)
-        perm, start_d = _counting_sort(cell, g.ncells, pset.__dict__.setdefault("_sort_work", {}))
+            _drop_cells[_blocks(n), THREADS](cell, drop, g.ncells)
+        perm, start_d = _counting_sort(cell, g.ncells, work, counted=drop is None)
         stays = pset.__dict__.get("_stays")
         pset.__dict__["_stays"] = None
         pset.__dict__["_grid"] = grid
@@ -461,15 +490,19 @@ class CudaBackend:
         # the set's spare copy of each field, which then swaps with it (ping-pong: no
         # allocation while the count holds)
         spare = pset.__dict__.setdefault("_spare", {})
+        kinds = {}  # the fields by array type: one gather launch for each
         for k in fields:
             a = pset[k]
             out = spare.get(k)
             if out is None or out.shape != a.shape[:-1] + (n_in,) or out.dtype != a.dtype:
                 out = cuda.device_array(a.shape[:-1] + (n_in,), dtype=a.dtype)
-            if n_in:
-                (_gather1 if a.ndim == 1 else _gather2)[_blocks(n_in), THREADS](a, perm, out)
+            kinds.setdefault((a.ndim, a.dtype.str, a.shape[:-1]), []).append((a, out))
             pset[k] = out
             spare[k] = a
+        if n_in:
+            for pairs in kinds.values():
+                gather = _gather_all1 if pairs[0][0].ndim == 1 else _gather_all2
+                gather[_blocks(n_in), THREADS](tuple(a for a, _ in pairs), perm, tuple(o for _, o in pairs))
         if dropped:
             for k in scratch:  # written before they are read: only their size matters
                 pset[k] = cuda.device_array(pset[k].shape[:-1] + (n_in,), dtype=pset[k].dtype)
