@@ -234,3 +234,67 @@ def test_a_bad_constraint_names_its_key(table, message):
     case["obstacle"][0]["floating"] = table
     with pytest.raises(CaseError, match=message):
         validate(case, "<test>")
+
+
+# ------------------------------------------------------------------------------ springs
+def _hanging(k, c=0.0, line=False, rest=-1.0, dim=2):
+    from wcsph.boundaries.floating import FloatingBody
+
+    centre = np.array([1.0, 1.0] if dim == 2 else [1.0, 1.0, 1.0])
+    anchor = centre + np.eye(dim)[dim - 1] * 0.5
+    spring = {"anchor": anchor, "point": None, "stiffness": k, "rest_length": rest, "damping": c, "line": line}
+    inertia = 0.01 if dim == 2 else np.eye(3) * 0.01
+    return FloatingBody("box", dim, 2.0, centre, inertia, springs=[spring])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_body_on_a_spring_oscillates_at_its_period_about_m_g_over_k(dim):
+    """M = 2 kg hanging from a spring (k = 800 N/m, rest length its starting 0.5 m) under
+    gravity: it swings between the start and 2 M g / k below it, with the period
+    2 pi sqrt(M/k) (symplectic Euler at dt = T/2000: to 0.1 %); with damping it comes to rest
+    M g / k below the start, where the tension carries its weight."""
+    M, k, g = 2.0, 800.0, np.array([0.0] * (dim - 1) + [-9.81])
+    T = 2 * np.pi * np.sqrt(M / k)
+    body, dt = _hanging(k, dim=dim), T / 2000
+    z, t = [], []
+    for n in range(5000):
+        body.step(dt, np.zeros(dim), np.zeros(1 if dim == 2 else 3), g)
+        z.append(body.c[-1] - 1.0)
+        t.append((n + 1) * dt)
+    z = np.array(z)
+    assert z.min() == pytest.approx(-2 * M * 9.81 / k, rel=2e-3)
+    lows = [t[i] for i in range(1, len(z) - 1) if z[i] < z[i - 1] and z[i] <= z[i + 1]]
+    assert np.diff(lows).mean() == pytest.approx(T, rel=1e-3)
+    assert np.abs(body.u[:-1]).max() == 0.0 and body.omega is not None
+    damped = _hanging(k, c=2 * np.sqrt(k * M), dim=dim)  # critical damping
+    for _ in range(20000):
+        damped.step(dt, np.zeros(dim), np.zeros(1 if dim == 2 else 3), g)
+    assert damped.c[-1] - 1.0 == pytest.approx(-M * 9.81 / k, rel=1e-6)
+    assert damped.tensions[0] == pytest.approx(M * 9.81, rel=1e-6)
+
+
+def test_a_slack_mooring_line_does_not_push():
+    """A line longer than the distance to its anchor pulls nothing: the body falls freely
+    until the line is taut; a spring of the same rest length pushes it down from the start."""
+    g, dt = np.array([0.0, 9.81]), 1e-4  # gravity up, towards the anchor: the line goes slack
+    line, spring = _hanging(800.0, line=True, rest=0.6), _hanging(800.0, rest=0.6)
+    for _ in range(100):
+        for b in (line, spring):
+            b.step(dt, np.zeros(2), np.zeros(1), g)
+    assert line.tensions[0] == 0.0 and line.u[1] == pytest.approx(9.81 * 100 * dt, rel=1e-12)
+    assert spring.tensions[0] < 0 and spring.u[1] < line.u[1]
+
+
+def test_a_moored_box_in_a_case_reports_its_tension(tmp_path):
+    """The ``springs`` table of a case: the body hangs from its anchor (away from the fluid),
+    and probes.csv carries the line's tension, which at the start of a free fall from rest is
+    zero and then grows with the stretch k g t^2 / 2."""
+    case = _free_fall_case(2)
+    case["obstacle"][0]["floating"]["springs"] = [{"anchor": [1.5, 1.9], "stiffness": 50.0, "line": True}]
+    s = wcsph.run(case, output=tmp_path, progress=False)
+    rows = list(csv.DictReader(open(tmp_path / "probes.csv")))
+    assert "box_spring0_tension" in rows[0]
+    tension = np.array([float(r["box_spring0_tension"]) for r in rows])
+    drop = 1.3 - np.array([float(r["box_y"]) for r in rows])
+    assert s["status"] == "completed" and tension[0] == 0.0 and tension[-1] > 0
+    assert tension[1:] == pytest.approx(50.0 * drop[1:], rel=1e-6, abs=1e-6)  # probes.csv: 9 digits

@@ -36,6 +36,15 @@ pendulum): the moment of inertia is taken about the hinge (parallel axes), the t
 fluid and of gravity too, and the centre moves on its circle; with ``rotation`` in 3D the
 hinge becomes an axis.
 
+Springs and mooring lines (``springs``, a list): each joins a point of the body (``point``,
+where it is at the start; default the centre of mass) to a fixed ``anchor`` with a linear
+force along the line, k (L - L0) + c dL/dt (``stiffness`` k in N/m, per metre of width in 2D;
+``rest_length`` L0, default the starting distance; ``damping`` c in N s/m), pulling the body
+towards the anchor when positive; ``line = true`` makes it a slack mooring line that pulls and
+never pushes. The force and its torque about the centre join the fluid's and gravity's in the
+body's step (explicit: a step well below the spring's period 2 pi sqrt(M/k) is assumed, which
+the fluid's step is by far). Each spring's tension is a probes.csv column.
+
 Contact: a body meets the tank's walls (its faces, the open top aside) as rigid, inelastic
 contact: after each step, a wall point of the body that has passed a tank face puts the body
 back on the face (along its free axes) and the body's velocity and acceleration into the face
@@ -48,6 +57,7 @@ import math
 import numpy as np
 
 from ..errors import CaseError
+from ..physics.registry import REQUIRED
 
 #: the ``floating`` table of a wall source
 FLOATING = {
@@ -60,6 +70,14 @@ FLOATING = {
     "translation": ("flags", None, None),  # free translation axes (default: all free)
     "rotation": ("rotation_flags", None, None),  # free rotation (2D: one flag; 3D: about x, y, z)
     "hinge": ("vec", None, None),  # the point the body turns about (default: its centre of mass)
+    "springs": ([{  # springs and mooring lines to fixed anchors (see the module)
+        "anchor": ("vec", REQUIRED, None),
+        "point": ("vec", None, None),  # on the body, where it is at the start (default: the centre of mass)
+        "stiffness": ("float", REQUIRED, (lambda v: v > 0, "must be positive")),
+        "rest_length": ("float", -1.0, None),  # negative: the starting distance
+        "damping": ("float", 0.0, (lambda v: v >= 0, "must be zero or positive")),
+        "line": ("bool", False, None),  # a mooring line: pulls, never pushes
+    }], [], None),
 }
 
 
@@ -116,7 +134,7 @@ class FloatingBody:
     (displacement of the centre, rotation, velocities, accelerations)."""
 
     def __init__(self, key, dim, mass, centre, inertia, release=0.0, added_mass=0.0, added_inertia=0.0,
-                 translation=None, rotation=None, hinge=None):
+                 translation=None, rotation=None, hinge=None, springs=()):
         if not mass > 0 or not np.all(np.isfinite(inertia)) or np.any(np.linalg.eigvalsh(np.atleast_2d(inertia)) <= 0):
             raise CaseError(f"{key}.floating: the body needs a positive mass and inertia (got mass {mass:g})")
         self.key, self.dim, self.mass, self.release = key, dim, float(mass), float(release)
@@ -140,6 +158,8 @@ class FloatingBody:
         self.free_t = np.array([False] * dim if self.hinge is not None else free_t, dtype=float)
         free_r = [True] * (1 if dim == 2 else 3) if rotation is None else list(rotation)
         self.free_r = np.array(free_r, dtype=bool)
+        self.springs = [Spring(sp, self.c0, dim) for sp in springs]
+        self.tensions = [0.0] * len(self.springs)  # at the last step, for probes.csv
         self.points = np.zeros((dim, 0))  # the wall points about c0 (contact), set by ``meet``
         self.planes = []  # (n, o): the tank's faces, inside where n . x >= o
 
@@ -166,6 +186,10 @@ class FloatingBody:
         if t is not None and t <= self.release:
             return
         F = np.asarray(force, dtype=float) + self.mass * np.asarray(gravity, dtype=float)
+        if self.springs:
+            sf, st = self._spring_loads()
+            F = F + sf
+            torque = np.asarray(torque, dtype=float) + st
         first = not self.moved
         self.moved = True
         Ma = 0.0 if first else self.added_mass
@@ -178,6 +202,21 @@ class FloatingBody:
             self._turn(dt, np.asarray(torque, dtype=float), self.inertia, 0.0 if first else self.added_inertia)
         if self.planes:
             self._contact()
+        if self.springs:
+            self._spring_loads()  # the tensions at the step's end, as probes.csv reports the state
+
+    def _spring_loads(self):
+        """The springs' force on the body and their torque about its centre, now."""
+        R = self.R if self.dim == 3 else _rot2(self.theta)
+        F, T = np.zeros(self.dim), np.zeros(3 if self.dim == 3 else 1)
+        for k, sp in enumerate(self.springs):
+            r = R @ sp.offset
+            q = self.c + r
+            v = self.u + (np.cross(self.omega, r) if self.dim == 3 else self.omega * np.array([-r[1], r[0]]))
+            f, self.tensions[k] = sp.force(q, v)
+            F = F + f
+            T = T + (np.cross(r, f) if self.dim == 3 else np.array([r[0] * f[1] - r[1] * f[0]]))
+        return F, T
 
     def _turn(self, dt, torque, inertia, added):
         """The rotation's step about the body's centre (2D: ``inertia`` a number; 3D: the
@@ -254,9 +293,11 @@ class FloatingBody:
         """The probes.csv columns of this body's state."""
         axes = "xyz"[: self.dim]
         cols = [f"{name}_{c}" for c in axes] + [f"{name}_v{c}" for c in axes]
+        tension = [f"{name}_spring{k}_tension" for k in range(len(self.springs))]
         if self.dim == 2:
-            return cols + [f"{name}_theta", f"{name}_omega"]
-        return cols + [f"{name}_omega{c}" for c in "xyz"] + [f"{name}_R{i}{j}" for i in range(3) for j in range(3)]
+            return cols + [f"{name}_theta", f"{name}_omega"] + tension
+        return (cols + [f"{name}_omega{c}" for c in "xyz"] + [f"{name}_R{i}{j}" for i in range(3) for j in range(3)]
+                + tension)
 
     def values(self, name):
         v = list(self.c) + list(self.u)
@@ -264,6 +305,7 @@ class FloatingBody:
             v += [self.theta, self.omega]
         else:
             v += list(self.omega) + list(self.R.ravel())
+        v += self.tensions
         return {c: float(x) for c, x in zip(self.columns(name), v)}
 
     def carried_state(self):
@@ -281,6 +323,33 @@ class FloatingBody:
             self.theta, self.omega, self.alpha = float(d["theta"]), float(d["omega"]), float(d["alpha"])
         else:
             self.R, self.omega, self.alpha = (np.asarray(d[k], dtype=float) for k in ("R", "omega", "alpha"))
+        if self.springs:
+            self._spring_loads()  # the tensions of the restored state
+
+
+class Spring:
+    """A linear spring or mooring line from a body point to a fixed anchor (see the module)."""
+
+    def __init__(self, table, centre, dim):
+        self.anchor = np.asarray(table["anchor"], dtype=float)
+        point = centre if table["point"] is None else np.asarray(table["point"], dtype=float)
+        self.offset = point - centre  # in the body's frame (its starting orientation)
+        self.k, self.c, self.line = float(table["stiffness"]), float(table["damping"]), bool(table["line"])
+        start = float(np.linalg.norm(point - self.anchor))
+        self.rest = start if table["rest_length"] < 0 else float(table["rest_length"])
+
+    def force(self, q, v):
+        """(force on the body at point q moving at v, tension): T = k (L - L0) + c dL/dt along
+        the line towards the anchor; a line's is never negative."""
+        d = q - self.anchor
+        L = float(np.linalg.norm(d))
+        if L == 0.0:
+            return np.zeros_like(d), 0.0
+        e = d / L
+        tension = self.k * (L - self.rest) + self.c * float(v @ e)
+        if self.line:
+            tension = max(tension, 0.0)
+        return -tension * e, tension
 
 
 def _rot2(theta):
@@ -340,7 +409,7 @@ def body_of(key, table, dim, mesh=None, rho0=1000.0):
     ca = fl["added_mass"] * rho0  # M_a = C_a rho0 V, I_a = C_a rho0 J (J: per unit density, about c)
     j_c = j if fl["centre"] is None else (j + (vol * (d @ d) if dim == 2 else _parallel_axes(vol, d)))
     return FloatingBody(key, dim, mass, c, inertia, fl["release"], ca * vol, ca * j_c,
-                        fl["translation"], fl["rotation"], fl["hinge"])
+                        fl["translation"], fl["rotation"], fl["hinge"], fl["springs"])
 
 
 def tank_planes(tank, dim):
