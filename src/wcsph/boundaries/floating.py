@@ -49,8 +49,10 @@ Contact: a body meets the tank's walls (its faces, the open top aside) as rigid,
 contact: after each step, a wall point of the body that has passed a tank face puts the body
 back on the face (along its free axes) and the body's velocity and acceleration into the face
 are removed. A body resting on the floor stays there; one thrown at a wall stops at it. The
-contact is between the body's wall points and the tank's planes only: two floating bodies,
-or a body and an obstacle or a wall mesh, meet through the fluid between them alone.
+same holds a body out of the case's fixed obstacle boxes: wall points of the body inside one
+move the body out by the least push along a free axis, and its velocity into the box goes. Two
+floating bodies, or a body and a moving obstacle, a polygon or a wall mesh, meet through the
+fluid between them alone.
 """
 import math
 
@@ -162,12 +164,15 @@ class FloatingBody:
         self.tensions = [0.0] * len(self.springs)  # at the last step, for probes.csv
         self.points = np.zeros((dim, 0))  # the wall points about c0 (contact), set by ``meet``
         self.planes = []  # (n, o): the tank's faces, inside where n . x >= o
+        self.blocks = []  # (lo, hi): fixed obstacle boxes the body stays out of
 
-    def meet(self, points, planes):
-        """The body's wall points (dim, K) at rest and the faces it must stay inside of
-        ((unit normal, offset): inside where n . x >= offset)."""
+    def meet(self, points, planes, blocks=()):
+        """The body's wall points (dim, K) at rest, the faces it must stay inside of
+        ((unit normal, offset): inside where n . x >= offset) and the fixed boxes it must stay
+        out of ((lo, hi): the case's fixed obstacle boxes)."""
         self.points = np.asarray(points, dtype=float) - self.c0[:, None]
         self.planes = [(np.asarray(n, dtype=float), float(o)) for n, o in planes]
+        self.blocks = [(np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)) for lo, hi in blocks]
 
     def pose(self, t):
         """(d, R, u, omega, du, alpha): the centre's displacement from where it started, the
@@ -202,6 +207,8 @@ class FloatingBody:
             self._turn(dt, np.asarray(torque, dtype=float), self.inertia, 0.0 if first else self.added_inertia)
         if self.planes:
             self._contact()
+        if self.blocks:
+            self._leave_blocks()
         if self.springs:
             self._spring_loads()  # the tensions at the step's end, as probes.csv reports the state
 
@@ -288,6 +295,35 @@ class FloatingBody:
                 into = float(w @ n)
                 if into < 0.0:
                     setattr(self, name, w - into * n * self.free_t)
+
+    def _leave_blocks(self):
+        """Out of each fixed box: when wall points of the body are inside one, the body is
+        moved out by the shortest push along a free axis that clears them all, and its
+        velocity and acceleration into the box go (rigid, inelastic, as at the tank's faces)."""
+        R = self.R if self.dim == 3 else _rot2(self.theta)
+        for lo, hi in self.blocks:
+            x = self.c[:, None] + R @ self.points
+            inside = np.all((x > lo[:, None]) & (x < hi[:, None]), axis=0)
+            if not inside.any():
+                continue
+            xi = x[:, inside]
+            best = None  # (push, axis, sign): the least push that takes every inside point out
+            for a in range(self.dim):
+                if not self.free_t[a]:
+                    continue
+                for sign, need in ((1.0, float(np.max(hi[a] - xi[a]))), (-1.0, float(np.max(xi[a] - lo[a])))):
+                    if best is None or need < best[0]:
+                        best = (need, a, sign)
+            if best is None:
+                continue  # held on every axis: nothing can move it out
+            need, a, sign = best
+            n = np.zeros(self.dim)
+            n[a] = sign
+            self.c = self.c + need * n
+            for name in ("u", "du"):
+                w = getattr(self, name)
+                if float(w @ n) < 0.0:
+                    setattr(self, name, w - float(w @ n) * n)
 
     def columns(self, name):
         """The probes.csv columns of this body's state."""
@@ -424,3 +460,10 @@ def tank_planes(tank, dim):
         if not (a == dim - 1 and tank.get("open_top")):
             out.append((-e, -float(tank["max"][a])))
     return out
+
+
+def fixed_blocks(case):
+    """(lo, hi) of the case's obstacle boxes that neither float nor move: the boxes a floating
+    body stays out of."""
+    return [(b["min"], b["max"]) for b in case["obstacle"]
+            if b.get("min") is not None and b.get("floating") is None and b.get("motion") is None]

@@ -12,7 +12,7 @@ from ..backends.grid import Grid
 from ..physics.integrators import INTEGRATORS, SPEC_SCHEMES
 from ..physics.kernels import SUPPORT, kernel_numpy, kernel_params, smoothing_length
 from ..models.wcsph import WCSPH
-from ..boundaries.floating import tank_planes
+from ..boundaries.floating import fixed_blocks, tank_planes
 from ..boundaries.motion import Bodies
 from ..boundaries.open_boundary import OpenBoundaries
 from ..backends.particles import ParticleSet
@@ -78,8 +78,9 @@ def build(case, backend, comm):
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,
                     _floating_bodies(case), float(np.linalg.norm(case["physics"]["gravity"])))
     planes = tank_planes(case["tank"], dim)  # the faces a floating body meets
+    blocks = fixed_blocks(case)  # the fixed boxes it stays out of
     for b, f in bodies.floating.items():
-        f.meet(wall0["x"][:, body == b], planes)
+        f.meet(wall0["x"][:, body == b], planes, blocks)
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
     walls.add("v", "vector", dtype, be)
     walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)
