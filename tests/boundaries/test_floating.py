@@ -331,3 +331,58 @@ def test_a_body_thrown_at_a_fixed_block_never_enters_it():
         x = b.c[:, None] + np.array([[np.cos(b.theta), -np.sin(b.theta)], [np.sin(b.theta), np.cos(b.theta)]]) @ b.points
         assert not np.any(np.all((x > lo[:, None]) & (x < hi[:, None]), axis=0))
     assert b.c[0] < 0.8 and b.u[0] <= 0.0
+
+
+def _box_body(lo, hi, mass, dim=2):
+    from wcsph.boundaries.floating import FloatingBody, box_properties
+
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    vol, c, j = box_properties(lo, hi)
+    b = FloatingBody("box", dim, mass, c, mass / vol * j)
+    grid = [np.linspace(lo[a], hi[a], 9) for a in range(dim)]
+    pts = np.array([p for p in np.array(np.meshgrid(*grid)).reshape(dim, -1).T
+                    if np.any(np.isclose(p, lo) | np.isclose(p, hi))]).T  # its surface
+    b.box = (lo - c, hi - c)
+    return b, pts
+
+
+def test_two_floating_boxes_meet_inelastically_and_keep_their_momentum():
+    """Two boxes (1 and 3 kg) thrown at each other (2 and -1 m/s, no gravity): no wall point of
+    one ever enters the other, their total momentum stays 2 - 3 = -1 kg m/s, and after they
+    meet they move together at -1/4 m/s (a perfectly inelastic contact)."""
+    from wcsph.boundaries.floating import collide
+
+    a, pa = _box_body([0.2, 0.4], [0.4, 0.6], 1.0)
+    b, pb = _box_body([0.8, 0.45], [1.0, 0.65], 3.0)
+    a.meet(pa, [])
+    b.meet(pb, [])
+    a.u, b.u = np.array([2.0, 0.0]), np.array([-1.0, 0.0])
+    for _ in range(300):
+        for body in (a, b):
+            body.step(0.001, [0.0, 0.0], 0.0, [0.0, 0.0])
+        collide(a, b)
+        xa = a.c[:, None] + a.points
+        assert not np.any(np.all((xa > (b.c + b.box[0])[:, None]) & (xa < (b.c + b.box[1])[:, None]), axis=0))
+        assert a.mass * a.u + b.mass * b.u == pytest.approx([-1.0, 0.0], abs=1e-12)
+    assert a.u == pytest.approx([-0.25, 0.0], abs=1e-12) and b.u == pytest.approx([-0.25, 0.0], abs=1e-12)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_floating_box_dropped_on_another_stacks_on_it(dim, tmp_path):
+    """A light box (density 300) dropped 0.3 m onto a heavier one (density 800) lying on the
+    tank's floor, away from the fluid: after 0.6 s the stack rests, the upper box's bottom on
+    the lower's top and the lower's on the floor (within 1e-9 m), neither moving (|v| < 1e-9
+    m/s: each step's fall is passed on to the floor over the sweeps; measured 1e-14)."""
+    case = _free_fall_case(dim)
+    case["time"]["end"] = 0.6
+    case["fluid"] = [{"min": [1.8] + [0.0] * (dim - 1), "max": [2.0] * (dim - 1) + [0.2]}]
+    case["obstacle"] = [
+        {"name": "low", "min": [0.4] * (dim - 1) + [0.0], "max": [0.8] * (dim - 1) + [0.2], "floating": {"density": 800.0}},
+        {"name": "up", "min": [0.5] * (dim - 1) + [0.5], "max": [0.7] * (dim - 1) + [0.7], "floating": {"density": 300.0}},
+        {"min": [1.65] + [0.0] * (dim - 1), "max": [1.75] + [2.0] * (dim - 2) + [0.5]}]
+    wcsph.run(case, output=tmp_path, progress=False)
+    last = list(csv.DictReader(open(tmp_path / "probes.csv")))[-1]
+    z = "xyz"[dim - 1]
+    assert float(last[f"low_{z}"]) == pytest.approx(0.1, abs=1e-9)
+    assert float(last[f"up_{z}"]) == pytest.approx(0.3, abs=1e-9)
+    assert abs(float(last[f"low_v{z}"])) < 1e-9 and abs(float(last[f"up_v{z}"])) < 1e-9

@@ -50,9 +50,11 @@ contact: after each step, a wall point of the body that has passed a tank face p
 back on the face (along its free axes) and the body's velocity and acceleration into the face
 are removed. A body resting on the floor stays there; one thrown at a wall stops at it. The
 same holds a body out of the case's fixed obstacle boxes: wall points of the body inside one
-move the body out by the least push along a free axis, and its velocity into the box goes. Two
-floating bodies, or a body and a moving obstacle, a polygon or a wall mesh, meet through the
-fluid between them alone.
+move the body out by the least push along a free axis, and its velocity into the box goes.
+Two floating boxes (``collide``) are parted the same way in the frame of the one entered, the
+push shared in inverse proportion to their masses, their approach removed with momentum kept
+(the contact's torque is left out). A body that is not a box, a moving obstacle, a polygon
+or a wall mesh meet a floating body through the fluid between them alone.
 """
 import math
 
@@ -165,6 +167,7 @@ class FloatingBody:
         self.points = np.zeros((dim, 0))  # the wall points about c0 (contact), set by ``meet``
         self.planes = []  # (n, o): the tank's faces, inside where n . x >= o
         self.blocks = []  # (lo, hi): fixed obstacle boxes the body stays out of
+        self.box = None  # (lo, hi) about c0 in the body's frame, when the body is an obstacle box
 
     def meet(self, points, planes, blocks=()):
         """The body's wall points (dim, K) at rest, the faces it must stay inside of
@@ -205,12 +208,16 @@ class FloatingBody:
             self.u = self.u + dt * self.du
             self.c = self.c + dt * self.u
             self._turn(dt, np.asarray(torque, dtype=float), self.inertia, 0.0 if first else self.added_inertia)
+        self.settle()
+        if self.springs:
+            self._spring_loads()  # the tensions at the step's end, as probes.csv reports the state
+
+    def settle(self):
+        """The contacts with the tank's faces and the fixed boxes again (after a push)."""
         if self.planes:
             self._contact()
         if self.blocks:
             self._leave_blocks()
-        if self.springs:
-            self._spring_loads()  # the tensions at the step's end, as probes.csv reports the state
 
     def _spring_loads(self):
         """The springs' force on the body and their torque about its centre, now."""
@@ -306,14 +313,7 @@ class FloatingBody:
             inside = np.all((x > lo[:, None]) & (x < hi[:, None]), axis=0)
             if not inside.any():
                 continue
-            xi = x[:, inside]
-            best = None  # (push, axis, sign): the least push that takes every inside point out
-            for a in range(self.dim):
-                if not self.free_t[a]:
-                    continue
-                for sign, need in ((1.0, float(np.max(hi[a] - xi[a]))), (-1.0, float(np.max(xi[a] - lo[a])))):
-                    if best is None or need < best[0]:
-                        best = (need, a, sign)
+            best = _least_push(x[:, inside], lo, hi, self.free_t)
             if best is None:
                 continue  # held on every axis: nothing can move it out
             need, a, sign = best
@@ -444,8 +444,11 @@ def body_of(key, table, dim, mesh=None, rho0=1000.0):
         inertia = fl["inertia"]
     ca = fl["added_mass"] * rho0  # M_a = C_a rho0 V, I_a = C_a rho0 J (J: per unit density, about c)
     j_c = j if fl["centre"] is None else (j + (vol * (d @ d) if dim == 2 else _parallel_axes(vol, d)))
-    return FloatingBody(key, dim, mass, c, inertia, fl["release"], ca * vol, ca * j_c,
+    body = FloatingBody(key, dim, mass, c, inertia, fl["release"], ca * vol, ca * j_c,
                         fl["translation"], fl["rotation"], fl["hinge"], fl["springs"])
+    if table.get("min") is not None:  # a box: other floating boxes stay out of it
+        body.box = (np.asarray(table["min"], dtype=float) - c, np.asarray(table["max"], dtype=float) - c)
+    return body
 
 
 def tank_planes(tank, dim):
@@ -460,6 +463,54 @@ def tank_planes(tank, dim):
         if not (a == dim - 1 and tank.get("open_top")):
             out.append((-e, -float(tank["max"][a])))
     return out
+
+
+def _least_push(y, lo, hi, free):
+    """(push, axis, sign) of the least move along an axis with ``free`` that takes the points
+    y (dim, K) out of the box [lo, hi] (all coordinates in the box's frame); None if no axis."""
+    best = None
+    for a in range(y.shape[0]):
+        if not free[a]:
+            continue
+        for sign, need in ((1.0, float(np.max(hi[a] - y[a]))), (-1.0, float(np.max(y[a] - lo[a])))):
+            if best is None or need < best[0]:
+                best = (need, a, sign)
+    return best
+
+
+def collide(a, b):
+    """Two floating boxes kept apart: the wall points of each inside the other's box (in that
+    box's frame) part the two by the least push along one of its axes, shared in inverse
+    proportion to their masses (a held axis takes none), and their velocity and acceleration
+    of approach along it go with momentum kept (a rigid, inelastic contact between the
+    centres: the contact's torque is left out). Returns whether they touched."""
+    touched = False
+    for p, q in ((a, b), (b, a)):
+        if q.box is None or not p.points.shape[1]:
+            continue
+        Rp = p.R if p.dim == 3 else _rot2(p.theta)
+        Rq = q.R if q.dim == 3 else _rot2(q.theta)
+        y = Rq.T @ (p.c[:, None] + Rp @ p.points - q.c[:, None])  # p's points in q's frame
+        lo, hi = q.box
+        inside = np.all((y > lo[:, None]) & (y < hi[:, None]), axis=0)
+        if not inside.any():
+            continue
+        best = _least_push(y[:, inside], lo, hi, [True] * p.dim)
+        need, k, sign = best
+        n = Rq[:, k] * sign  # out of q, for p
+        inv_p, inv_q = (float(n @ (x.free_t * n)) / x.mass for x in (p, q))
+        if inv_p + inv_q <= 0.0:
+            continue  # both held along it
+        p.c = p.c + need * inv_p / (inv_p + inv_q) * p.free_t * n
+        q.c = q.c - need * inv_q / (inv_p + inv_q) * q.free_t * n
+        for name in ("u", "du"):
+            rel = float((getattr(p, name) - getattr(q, name)) @ n)
+            if rel < 0.0:
+                j = -rel / (inv_p + inv_q)
+                setattr(p, name, getattr(p, name) + j / p.mass * p.free_t * n)
+                setattr(q, name, getattr(q, name) - j / q.mass * q.free_t * n)
+        touched = True
+    return touched
 
 
 def fixed_blocks(case):

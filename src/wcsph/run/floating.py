@@ -1,7 +1,13 @@
 """Stage: the floating bodies' rigid-body step (``floating``), after the fluid's: the fluid's
 force and torque on each at the step's end (``run.loads``) and gravity move it by the step's
-dt; ``MoveWalls`` then places its walls."""
+dt; floating boxes that met are parted (``floating.collide``) and put back inside the tank;
+``MoveWalls`` then places its walls."""
+from ..boundaries.floating import collide
 from .loads import loads
+
+#: sweeps over the pairs of floating bodies at most, per step: a stack of bodies on the floor
+#: passes each push on to the floor through the others, a part per sweep
+SWEEPS = 16
 
 
 class MoveBodies:
@@ -13,3 +19,14 @@ class MoveBodies:
         g = state.gravity * state.gravity_factor(state.t)
         for b, (force, torque) in zip(self.which, loads(state, self.bodies, self.which)):
             self.bodies.floating[b].step(state.dt, force, torque, g, state.t)
+        moving = [self.bodies.floating[b] for b in self.which]
+        for _ in range(SWEEPS if len(moving) > 1 else 0):  # Gauss-Seidel sweeps over the pairs
+            touched = False
+            for i, a in enumerate(moving):
+                for b in moving[i + 1:]:
+                    if collide(a, b):
+                        touched = True
+                        for body in (a, b):  # a push must not take a body through the tank or an obstacle
+                            body.settle()
+            if not touched:
+                break
