@@ -196,17 +196,23 @@ def test_a_body_dropped_in_the_tank_lands_on_its_floor(dim, tmp_path):
     """The free-fall case run on until the box has fallen 1.2 m onto the floor: it stops on
     it (the box's bottom on the floor within 1e-9 m, at rest) instead of falling through;
     without the contact it would be 1.2 m below the floor at the end."""
-    case = _free_fall_case(dim)
-    case["time"]["end"] = 0.7
-    # the water behind a dam at the far end, so that none of it runs under the box
-    case["fluid"] = [{"min": [1.8] + [0.0] * (dim - 1), "max": [2.0] * (dim - 1) + [0.2]}]
-    case["obstacle"].append({"min": [1.65] + [0.0] * (dim - 1), "max": [1.75] + [2.0] * (dim - 2) + [0.5]})
-    case["obstacle"][0].update(min=[0.4] * (dim - 1) + [1.2], max=[0.6] * (dim - 1) + [1.4])
-    wcsph.run(case, output=tmp_path, progress=False)
-    last = list(csv.DictReader(open(tmp_path / "probes.csv")))[-1]
-    z = "xyz"[dim - 1]
+    z, last = _drop(dim, tmp_path)
     assert float(last[f"box_{z}"]) - 0.1 == pytest.approx(0.0, abs=1e-9)
     assert float(last[f"box_v{z}"]) == 0.0
+
+
+def _drop(dim, tmp_path, *obstacles):
+    """The free-fall case run on to 0.7 s, the box starting 1.2 m above the floor, with the
+    water behind a dam at the far end (none of it runs under the box) and ``obstacles``
+    added: (the vertical axis' name, the last probes.csv row)."""
+    case = _free_fall_case(dim)
+    case["time"]["end"] = 0.7
+    case["fluid"] = [{"min": [1.8] + [0.0] * (dim - 1), "max": [2.0] * (dim - 1) + [0.2]}]
+    case["obstacle"].append({"min": [1.65] + [0.0] * (dim - 1), "max": [1.75] + [2.0] * (dim - 2) + [0.5]})
+    case["obstacle"] += list(obstacles)
+    case["obstacle"][0].update(min=[0.4] * (dim - 1) + [1.2], max=[0.6] * (dim - 1) + [1.4])
+    wcsph.run(case, output=tmp_path, progress=False)
+    return "xyz"[dim - 1], list(csv.DictReader(open(tmp_path / "probes.csv")))[-1]
 
 
 def test_contact_keeps_a_tilted_body_inside_every_face():
@@ -304,15 +310,7 @@ def test_a_moored_box_in_a_case_reports_its_tension(tmp_path):
 def test_a_body_dropped_on_a_fixed_obstacle_rests_on_it(dim, tmp_path):
     """The drop above, with a fixed obstacle box (top at 0.6 m) under the body: it stops on the
     box's top (within 1e-9 m, at rest) instead of falling through it to the floor."""
-    case = _free_fall_case(dim)
-    case["time"]["end"] = 0.7
-    case["fluid"] = [{"min": [1.8] + [0.0] * (dim - 1), "max": [2.0] * (dim - 1) + [0.2]}]
-    case["obstacle"].append({"min": [1.65] + [0.0] * (dim - 1), "max": [1.75] + [2.0] * (dim - 2) + [0.5]})
-    case["obstacle"].append({"min": [0.3] * (dim - 1) + [0.0], "max": [0.7] * (dim - 1) + [0.6]})
-    case["obstacle"][0].update(min=[0.4] * (dim - 1) + [1.2], max=[0.6] * (dim - 1) + [1.4])
-    wcsph.run(case, output=tmp_path, progress=False)
-    last = list(csv.DictReader(open(tmp_path / "probes.csv")))[-1]
-    z = "xyz"[dim - 1]
+    z, last = _drop(dim, tmp_path, {"min": [0.3] * (dim - 1) + [0.0], "max": [0.7] * (dim - 1) + [0.6]})
     assert float(last[f"box_{z}"]) - 0.7 == pytest.approx(0.0, abs=1e-9)
     assert float(last[f"box_v{z}"]) == 0.0
 
