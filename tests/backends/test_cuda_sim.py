@@ -119,8 +119,9 @@ def test_a_cuda_step_reads_the_device_once(name, dp):
     """Counted in the simulator (``benchmarks/cuda_counts.py``) over steps after the warm-up,
     with the adaptive time step: one device-to-host copy per step (the check, which the next
     step's size needs; the sort learns from it that nobody left), no allocation and no upload.
-    Launches are held at today's count, 21 (the sort's cell ids and histogram in one launch, its
-    gathers one per kind of field; the issue's target of 8 is not reached)."""
+    Launches are held at today's count, 20 (the sort's cell ids and histogram in one launch, its
+    gathers one per kind of field, the check's figures made in its first reduction level; the
+    issue's target of 8 is not reached)."""
     r = subprocess.run([sys.executable, COUNTS, name, "--dp", str(dp), "--steps", "2", "--threads", "32", "--json"],
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -128,7 +129,7 @@ def test_a_cuda_step_reads_the_device_once(name, dp):
     assert c["fluid"] > 50
     assert c.get("device->host copy", 0) == 1, c
     assert c.get("allocation", 0) == 0 and c.get("host->device copy", 0) == 0, c
-    assert c["launches"] <= 21, c
+    assert c["launches"] <= 20, c
 
 
 LEAVING = FAST_SIMULATOR + r"""

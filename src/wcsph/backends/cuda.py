@@ -229,27 +229,6 @@ def _scatter2(src, idx, dst):
 
 
 @cuda.jit
-def _speeds(x, v, a, out, origin, inv_cell, nx, ny, nz, ncells, k):
-    """out[0, i] = |v|^2, out[1, i] = |a|^2, out[2, i] = 1 if anything is non-finite,
-    out[3, i] = 1 if the particle is outside the grid (the next sort drops it)."""
-    i = cuda.grid(1)
-    if i >= x.shape[1]:
-        return
-    out[3, i] = 1.0 if _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k) == ncells else 0.0
-    s = 0.0
-    q = 0.0
-    ok = True
-    for d in range(x.shape[0]):
-        s += v[d, i] * v[d, i]
-        q += a[d, i] * a[d, i]
-        ok = ok and math.isfinite(x[d, i])
-    ok = ok and math.isfinite(s) and math.isfinite(q)
-    out[0, i] = s if ok else 0.0
-    out[1, i] = q if ok else 0.0
-    out[2, i] = 0.0 if ok else 1.0
-
-
-@cuda.jit
 def _wrap(x, lo, length, inv_cell, origin, k, real, axes):
     """The CPU backend's ``_wrap``, one thread per particle."""
     i = cuda.grid(1)
@@ -353,12 +332,29 @@ def _make_reduce_kernel(fn):
     return launch
 
 
+@cuda.jit(device=True)
+def _block_tree(tile, acc, is_max, r, partial):
+    """partial[r, this block] = the block's threads' ``acc`` reduced (max or sum) in the
+    shared array ``tile``."""
+    t = cuda.threadIdx.x
+    tile[t] = acc
+    cuda.syncthreads()
+    step = THREADS // 2
+    while step > 0:
+        if t < step:
+            tile[t] = max(tile[t], tile[t + step]) if is_max else tile[t] + tile[t + step]
+        cuda.syncthreads()
+        step //= 2
+    if t == 0:
+        partial[r, cuda.blockIdx.x] = tile[0]
+    cuda.syncthreads()
+
+
 @cuda.jit
 def _reduce_blocks(out, is_max, mask, masked, partial):
     """partial[r, b]: row r of ``out`` reduced (sum, or max where is_max[r]) over the columns
     of block b's grid-stride share (columns with mask[i] != 0 only, when ``masked``)."""
     tile = cuda.shared.array(THREADS, dtype=np.float64)
-    t = cuda.threadIdx.x
     n = out.shape[1]
     for r in range(out.shape[0]):
         acc = -math.inf if is_max[r] else 0.0
@@ -368,22 +364,70 @@ def _reduce_blocks(out, is_max, mask, masked, partial):
                 v = out[r, i]
                 acc = max(acc, v) if is_max[r] else acc + v
             i += cuda.gridsize(1)
-        tile[t] = acc
-        cuda.syncthreads()
-        step = THREADS // 2
-        while step > 0:
-            if t < step:
-                tile[t] = max(tile[t], tile[t + step]) if is_max[r] else tile[t] + tile[t + step]
-            cuda.syncthreads()
-            step //= 2
-        if t == 0:
-            partial[r, cuda.blockIdx.x] = tile[0]
-        cuda.syncthreads()
+        _block_tree(tile, acc, is_max[r], r, partial)
+
+
+@cuda.jit
+def _check_blocks(x, v, a, origin, inv_cell, nx, ny, nz, ncells, k, mask, masked, partial):
+    """The check's first reduction level, the per-particle figures made in it: partial[:, b]
+    = (largest |v|^2, largest |a|^2, particles with anything non-finite, particles outside
+    the grid) over block b's grid-stride share (owned ones only, when ``masked``)."""
+    tile = cuda.shared.array(THREADS, dtype=np.float64)
+    vmax2 = 0.0
+    amax2 = 0.0
+    bad = 0.0
+    outside = 0.0
+    i = cuda.grid(1)
+    while i < x.shape[1]:
+        if not masked or mask[i] != 0:
+            s = 0.0
+            q = 0.0
+            ok = True
+            for d in range(x.shape[0]):
+                s += v[d, i] * v[d, i]
+                q += a[d, i] * a[d, i]
+                ok = ok and math.isfinite(x[d, i])
+            if ok and math.isfinite(s) and math.isfinite(q):
+                vmax2 = max(vmax2, s)
+                amax2 = max(amax2, q)
+            else:
+                bad += 1.0
+            if _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k) == ncells:
+                outside += 1.0
+        i += cuda.gridsize(1)
+    _block_tree(tile, vmax2, True, 0, partial)
+    _block_tree(tile, amax2, True, 1, partial)
+    _block_tree(tile, bad, False, 2, partial)
+    _block_tree(tile, outside, False, 3, partial)
 
 
 #: blocks of the first reduction level (their partial results are reduced by one more block)
 REDUCE_BLOCKS = 128
 _OPS = {}  # the rows' ops as device flags, per tuple of ops
+
+
+def _flags(ops):
+    """The rows' ops as device flags (1: max), uploaded once per tuple of ops."""
+    if ops not in _OPS:
+        _OPS[ops] = cuda.to_device(np.array([op == "max" for op in ops], dtype=np.int8))
+    return _OPS[ops]
+
+
+def _mask(owned):
+    """The columns to reduce over as a device array (a placeholder when all are)."""
+    if owned is None:
+        if "unmasked" not in _OPS:
+            _OPS["unmasked"] = cuda.to_device(np.zeros(1, dtype=np.int8))
+        return _OPS["unmasked"]
+    return owned if hasattr(owned, "copy_to_host") else cuda.to_device(np.ascontiguousarray(owned))
+
+
+def _finish_rows(partial, ops):
+    """The first level's per-block results reduced by one block, copied to the host."""
+    final = _scratch((len(ops), 1))
+    _reduce_blocks[1, THREADS](partial, _flags(ops), _mask(None), False, final)
+    r = final.copy_to_host()[:, 0]
+    return tuple(0.0 if (op == "max" and v == -math.inf) else float(v) for v, op in zip(r, ops))
 
 
 def _reduce_rows(out, ops, owned=None):
@@ -393,23 +437,10 @@ def _reduce_rows(out, ops, owned=None):
     rows, n = out.shape
     if n == 0:
         return (0.0,) * rows
-    if ops not in _OPS:
-        _OPS[ops] = cuda.to_device(np.array([op == "max" for op in ops], dtype=np.int8))
-    is_max = _OPS[ops]
-    if "unmasked" not in _OPS:
-        _OPS["unmasked"] = cuda.to_device(np.zeros(1, dtype=np.int8))
-    unmasked = _OPS["unmasked"]
-    if owned is None:
-        mask = unmasked
-    else:
-        mask = owned if hasattr(owned, "copy_to_host") else cuda.to_device(np.ascontiguousarray(owned))
     nb = min(REDUCE_BLOCKS, _blocks(n))
     partial = _scratch((rows, nb))
-    _reduce_blocks[nb, THREADS](out, is_max, mask, owned is not None, partial)
-    final = _scratch((rows, 1))
-    _reduce_blocks[1, THREADS](partial, is_max, unmasked, False, final)
-    r = final.copy_to_host()[:, 0]
-    return tuple(0.0 if (op == "max" and v == -math.inf) else float(v) for v, op in zip(r, ops))
+    _reduce_blocks[nb, THREADS](out, _flags(ops), _mask(owned), owned is not None, partial)
+    return _finish_rows(partial, ops)
 
 
 def _on_device(grid, dt):
@@ -560,7 +591,9 @@ class CudaBackend:
             g = grid.view()
             origin, inv = _on_device(grid, np.dtype(x.dtype).type)
             nx, ny, nz, ncells, k = g.nx, g.ny, g.nz, g.ncells, g.k
-        out = _scratch((4, n))
-        _speeds[_blocks(n), THREADS](x, pset["v"], pset["dvdt"], out, origin, inv, nx, ny, nz, ncells, k)
-        vmax2, amax2, bad, outside = _reduce_rows(out, ("max", "max", "sum", "sum"), owned)
+        nb = min(REDUCE_BLOCKS, _blocks(n))
+        partial = _scratch((4, nb))
+        _check_blocks[nb, THREADS](x, pset["v"], pset["dvdt"], origin, inv, nx, ny, nz, ncells, k, _mask(owned),
+                                   owned is not None, partial)
+        vmax2, amax2, bad, outside = _finish_rows(partial, ("max", "max", "sum", "sum"))
         return vmax2, amax2, int(bad), int(outside)
