@@ -7,7 +7,7 @@ import numba
 from numba import literal_unroll, njit, prange
 from numba.extending import overload, register_jitable
 
-from .walk import make_periodic_walk, make_run_visitor
+from .walk import make_periodic_walk, make_run_visitor, particle_check
 
 
 #: below this many particles the sort, the per-particle maps and the checks run on one
@@ -122,14 +122,8 @@ def _check(x, v, a, owned):
     for i in prange(x.shape[1]):
         if not every and owned[i] == 0:
             continue
-        s = 0.0
-        q = 0.0
-        ok = True
-        for d in range(x.shape[0]):
-            s += v[d, i] * v[d, i]
-            q += a[d, i] * a[d, i]
-            ok = ok and np.isfinite(x[d, i])
-        if ok and np.isfinite(s) and np.isfinite(q):
+        s, q, ok = particle_check(x, v, a, i)
+        if ok:
             vmax2 = max(vmax2, s)
             amax2 = max(amax2, q)
         else:

@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba import cuda
 
-from .walk import make_periodic_walk, make_run_visitor
+from .walk import make_periodic_walk, make_run_visitor, particle_check
 
 THREADS = 128
 #: elements a thread scans serially in the cell-start scan (a level of the scan)
@@ -380,14 +380,8 @@ def _check_blocks(x, v, a, origin, inv_cell, nx, ny, nz, ncells, k, mask, masked
     i = cuda.grid(1)
     while i < x.shape[1]:
         if not masked or mask[i] != 0:
-            s = 0.0
-            q = 0.0
-            ok = True
-            for d in range(x.shape[0]):
-                s += v[d, i] * v[d, i]
-                q += a[d, i] * a[d, i]
-                ok = ok and math.isfinite(x[d, i])
-            if ok and math.isfinite(s) and math.isfinite(q):
+            s, q, ok = particle_check(x, v, a, i)
+            if ok:
                 vmax2 = max(vmax2, s)
                 amax2 = max(amax2, q)
             else:

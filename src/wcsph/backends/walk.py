@@ -1,8 +1,22 @@
-"""The part of the neighbour loop both backends share: folding one contiguous run of
-sorted particles j0..j1 of set J into particle i's accumulator."""
+"""The parts of the loops both backends share: folding one contiguous run of sorted
+particles j0..j1 of set J into particle i's accumulator, and the check of one particle."""
 import math
 
 from numba.extending import register_jitable
+
+
+@register_jitable
+def particle_check(x, v, a, i):
+    """(|v|^2, |a|^2, ok) of particle i of the (dim, N) arrays x, v, a: ok when all three are
+    finite (the check after a step; compiled without fastmath, which would drop the test)."""
+    s = 0.0
+    q = 0.0
+    ok = True
+    for d in range(x.shape[0]):
+        s += v[d, i] * v[d, i]
+        q += a[d, i] * a[d, i]
+        ok = ok and math.isfinite(x[d, i])
+    return s, q, ok and math.isfinite(s) and math.isfinite(q)
 
 
 def make_run_visitor(dim, pair, zero, inline="never", branchless=False):
