@@ -294,7 +294,8 @@ class Integrator:
     params = ()  # its parameters (``Param`` in the ``[time]`` table); the settings it reads
     fields = ()  # per-particle arrays the scheme keeps: (name, kind, scratch)
     order = None  # formal order of accuracy
-    evaluations = 1  # derivative evaluations per step (a midpoint step: per iteration)
+    evaluations = 1  # derivative evaluations per step (per iteration when ``iterated``)
+    iterated = False  # an implicit scheme: its evaluations repeat per iteration
     reduce_maps = ()  # indices of the maps that are reductions, not per-particle updates
     #: scalar attributes that carry from one step to the next (saved in checkpoints)
     carried = ()
@@ -419,8 +420,6 @@ class RungeKutta(Integrator):
         super().__init__(backend, dim, continuity, dtype, settings)
         S = len(self.b)
         self.fields = _SAVED + (("k", (S, 2 * dim + 1), True),)
-        self.order = self.ORDER
-        self.evaluations = S
         self.stage_w = []
         for s in range(S):
             row = list(self.A[s + 1]) if s + 1 < S else list(self.b)
@@ -484,9 +483,9 @@ class RungeKutta(Integrator):
 
 @register
 class RK4(RungeKutta):
-    name, spec_name, ref = 'rk4', None, 'Kutta (1901)'
     """The classic fourth-order Runge-Kutta scheme (Kutta 1901), four evaluations a step."""
-    ORDER = 4
+    name, spec_name, ref = 'rk4', None, 'Kutta (1901)'
+    order, evaluations = 4, 4
     stable_cfl, safe_cfl = 1.0, 0.5
     A = [[], [0.5], [0.0, 0.5], [0.0, 0.0, 1.0]]
     b = [1 / 6, 1 / 3, 1 / 3, 1 / 6]
@@ -499,7 +498,7 @@ class RK45(RungeKutta):
     particles are re-sorted between steps)."""
     name, spec_name, ref = 'rk45', 'RK45', 'Dormand & Prince (1980)'
     params = (Param("rk45_tolerance", 1e-6, "largest scaled local error of an accepted step", check=POS, table="time"),)
-    ORDER = 5
+    order, evaluations = 5, 7
     safe_cfl = 0.5  # the error control lowers the step as needed
     A = [[],
          [1 / 5],
@@ -514,7 +513,6 @@ class RK45(RungeKutta):
 
 @register
 class ImplicitMidpoint(Integrator):
-    name, spec_name, ref = 'midpoint', 'MidpointScheme', 'Cercos-Pita et al. (2024), the WCSPH-BI spec'
     """Implicit midpoint (IMP), as the WCSPH-BI spec writes it after Cercos-Pita et al.
     (2024): with y = (x, v, rho) and f its time derivative,
     y_n+1 = y_n + dt f(y_n+1/2), y_n+1/2 = y_n + dt/2 f(y_n+1/2), solved by a relaxed
@@ -546,6 +544,8 @@ class ImplicitMidpoint(Integrator):
     schemes: inside the iteration they would make the fixed-point map discontinuous.
     The midpoint rule is symplectic and time-reversible, so with a conservative,
     dissipation-free model the energy error stays bounded rather than drifting."""
+    name, spec_name, ref = 'midpoint', 'MidpointScheme', 'Cercos-Pita et al. (2024), the WCSPH-BI spec'
+    iterated = True
 
     ROUNDOFF_FLOOR = 1000.0
     ROUNDOFF_STALL = 2
@@ -648,8 +648,6 @@ def integrator_table():
             "|---|---|---|---|---|---|"]
     for name, cls in INTEGRATORS.items():
         ps = ", ".join(f"`{p.key}` ({p.default!r})" for p in cls.params)
-        order = getattr(cls, "ORDER", cls.order)
-        evals = len(cls.b) if getattr(cls, "b", None) else cls.evaluations
-        rows.append(f"| `{name}` | {f'`{cls.spec_name}`' if cls.spec_name else ''} | {cls.ref} | {order} | "
-                    f"{evals}{' per iteration' if cls is ImplicitMidpoint else ''} | {ps} |")
+        rows.append(f"| `{name}` | {f'`{cls.spec_name}`' if cls.spec_name else ''} | {cls.ref} | {cls.order} | "
+                    f"{cls.evaluations}{' per iteration' if cls.iterated else ''} | {ps} |")
     return "\n".join(rows)
