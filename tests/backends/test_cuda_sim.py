@@ -179,3 +179,22 @@ def test_cuda_matches_cpu_in_float32_with_the_adaptive_step():
     assert res["vmax"] > 0 and res["pmax"] > 0
     assert res["dx"] < 1e-6 and res["dv"] < 1e-4 * res["vmax"]
     assert res["drho"] < 2e-6 * 1000.0 and res["dp"] < 1e-4 * res["pmax"]
+
+
+GPU_BENCH = os.path.join(os.path.dirname(__file__), "..", "..", "benchmarks", "gpu.py")
+
+
+def test_the_gpu_benchmark_runs_and_counts_in_the_simulator():
+    """``benchmarks/gpu.py`` (the table issue 21 asks for, ready for the day a GPU is lent),
+    scaled down to 200 particles in the simulator: it sets the case up at its particle count,
+    and its launch and synchronisation counts are those of ``cuda_counts.py`` (20 launches and
+    one device-to-host copy per step of the 2D WCSPH-BI dam break)."""
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    r = subprocess.run([sys.executable, GPU_BENCH, "--cases", "2d-100k", "--scale", "0.002", "--warmup", "2",
+                        "--count", "1", "--steps", "1", "--windows", "1", "--threads", "32", "--json"],
+                       capture_output=True, text=True, env=env, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    res = json.loads(r.stdout.strip().splitlines()[-1])
+    assert 150 <= res["fluid"] <= 250, res
+    assert res["launches"] == 20 and res["syncs"] == 1, res
+    assert res["ms_per_step"] > 0 and res["M_per_s"] > 0, res
