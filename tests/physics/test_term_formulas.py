@@ -18,7 +18,7 @@ from wcsph.physics.eos import make_cole, make_linearized_cole, make_tait
 from wcsph.physics.kernels import kernel_numpy
 from wcsph.physics.pressure import (make_akinci_pressure, make_bi_boundary_pressure, make_corrected_pressure,
                                     make_bi_pressure)
-from wcsph.physics.viscosity import make_artificial_viscosity, make_mgvt, make_mvt
+from wcsph.physics.viscosity import make_artificial_viscosity, make_boundary_viscosity, make_mgvt, make_mvt
 from wcsph.physics.xsph import make_xsph, make_xsph_position
 
 H = 0.02
@@ -231,6 +231,27 @@ def test_viscous_terms_are_their_formulas(pair, P, ctx):
         wall = _call(make(ctx, wall=True), pair, pair, 0, 1, P)[2:4]
         bulk = _call(make(ctx), pair, pair, 0, 1, P)[2:4]
         assert wall == pytest.approx(bulk * P.wall_visc / P.visc, rel=1e-12, abs=1e-300)
+
+
+def test_boundary_viscous_term_is_its_formula_and_zero_behind_the_plane(P, ctx):
+    """WCSPH-BI no-slip wall term: c (v_i - v_b) d / (d^2 + eps h^2) W_ib S_b with
+    d = (x_i - x_b) . n_b < 0 on the fluid side; a particle behind the element's plane (d > 0,
+    round a convex corner) gets nothing, where 1/d would drive the slip instead of damping it."""
+    rng = np.random.default_rng(17)
+    I, B = _set(rng), _set(rng)
+    B.n[:, 1] = 0.0
+    for side in (-1.0, 1.0):
+        B.n[:2, 1] = side * (I.x[:2, 0] - B.x[:2, 1]) / np.linalg.norm(I.x[:2, 0] - B.x[:2, 1])
+        d_vec, r, _ = _geometry(I, B, 0, 1)
+        d = d_vec @ B.n[:2, 1]
+        expected = P.wall_visc * min(d, 0.0) / (min(d, 0.0) ** 2 + P.eps_h2) * W(r) * B.elementSize[1] * (
+            I.v[:2, 0] - B.v[:2, 1])
+        got = _call(make_boundary_viscosity(ctx, False), I, B, 0, 1, P)[2:4]
+        assert got == pytest.approx(expected, rel=1e-12, abs=1e-300)
+        if side < 0:  # in front of the plane: it opposes the slip
+            assert got @ (I.v[:2, 0] - B.v[:2, 1]) < 0
+        else:
+            assert np.all(got == 0.0)
 
 
 def test_xsph_is_its_formula(pair, P, ctx):

@@ -69,7 +69,11 @@ def make_boundary_viscosity(ctx, artificial):
     """No-slip wall term of the WCSPH-BI spec (MVT and MGVT rows):
     c sum_b (v_i - v_b) / ((x_i - x_b) . n_b) W_ib S_b, with c = ``P.wall_visc`` and the
     denominator regularised as d / (d^2 + eps h^2). d < 0 on the fluid side (n_b points out of
-    the fluid), so the term opposes the slip. For artificial viscosity the same term with
+    the fluid), so the term opposes the slip. A particle behind the element's plane (d > 0:
+    round a convex corner, beside the next face) takes nothing from it: there 1/d would
+    *drive* the slip, and a body moving through still water felt a forward friction from the
+    water lagging behind its rear corners (SPHERIC 6: C_D,v -0.14 against +0.20; the fix is
+    min(d, 0), no change on a flat or concave wall). For artificial viscosity the same term with
     the equivalent viscosity nu = alpha h c0 / (2 (n + 2)) (Monaghan 2005), times rho_i, acting
     only while the particle approaches the wall."""
     w, dim, zero, dtype = ctx.w, ctx.dim, ctx.zero, ctx.dtype
@@ -80,7 +84,8 @@ def make_boundary_viscosity(ctx, artificial):
         uy = I.v[1, i] - J.v[1, j]
         uz = I.v[2, i] - J.v[2, j] if dim == 3 else zero
         nz = J.n[2, j] if dim == 3 else zero
-        d = dx * J.n[0, j] + dy * J.n[1, j] + dz * nz
+        # only from the fluid side of the element's plane (a min, not a branch)
+        d = min(dx * J.n[0, j] + dy * J.n[1, j] + dz * nz, zero)
         f = P.wall_visc * d / (d * d + P.eps_h2) * w(r, P) * J.elementSize[j]
         if artificial:  # compile-time choice; only while approaching, as a factor 0 or 1
             f *= I.rho[i] * dtype(ux * J.n[0, j] + uy * J.n[1, j] + uz * nz > zero)
