@@ -11,7 +11,7 @@ from wcsph import load  # the package's own name for it, the same in every tree 
 #: fluid volume (area in 2D) of each shipped dam break, to choose dp for a particle count
 COLUMN = {"dam_break_2d": 1.0 * 2.0, "dam_break_3d": 0.3 * 0.4 * 0.6,
           "dam_break_2d_bi": 0.6 * 0.3, "dam_break_3d_bi": 0.3 * 0.4 * 0.6,
-          "hydrostatic_2d": 1.0 * 0.5, "hydrostatic_2d_bi": 2.0 * 0.5}
+          "hydrostatic_2d": 1.0 * 0.5, "hydrostatic_2d_bi": 2.0 * 0.5, "spheric2_3d": 1.228 * 1.0 * 0.55}
 
 
 def setup(name, n_target, overrides=(), precision="float32", backend="cpu"):

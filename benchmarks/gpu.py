@@ -21,6 +21,8 @@ import os
 import sys
 import time
 
+from _measure import COLUMN
+
 #: name: (case, fluid particles or None, dp or None, what the issue compares it with)
 CASES = {
     "2d-100k": ("dam_break_2d_bi", 100_000, None, "goal >= 100 M/s"),
@@ -29,8 +31,8 @@ CASES = {
     "3d-5M": ("dam_break_3d_bi", 5_000_000, None, "goal >= 350 M/s"),
 }
 
-#: fluid volume (area in 2D) of the cases above, to choose dp for a particle count
-VOLUME = {"dam_break_2d_bi": 0.6 * 0.3, "dam_break_3d_bi": 0.3 * 0.4 * 0.6, "spheric2_3d": 1.228 * 1.0 * 0.55}
+#: fluid volume (area in 2D) of each case, to choose dp for a particle count: the benchmarks' table
+VOLUME = COLUMN
 
 
 def dp_for(case, n=None, dp=None, scale=1.0):
