@@ -130,14 +130,15 @@ def test_dam_break_3d_bi_stays_physical(tmp_path):
     """The shipped 3D case with the conservative scheme, the one whose wall terms are
     antisymmetric: the kinetic energy gained is at most the potential energy lost (+1 %;
     measured 0.998). The shipped consistent scheme renormalizes the sums next to walls and
-    does not conserve energy: it gains 3.0 % more kinetic energy than the potential energy
-    lost at dp = 0.04, 1.7 % at 0.03 and 1.5 % at 0.02 (of which about 1 % is the elastic
-    energy of the hydrostatic start, 0.44 J); asserted: below 3.5 % and smaller at dp = 0.03
-    than at 0.04."""
+    does not conserve energy: with the shipped Fourtakas diffusion it gains 3.6 % more kinetic
+    energy than the potential energy lost at dp = 0.04, 2.1 % at 0.03 and 1.8 % at 0.02 (with
+    Molteni's, which also damps the density's acoustic oscillations: 3.0, 1.7 and 1.5 %; about
+    1 % is the elastic energy of the hydrostatic start, 0.44 J); asserted: below 4 % and
+    smaller at dp = 0.03 than at 0.04."""
     assert _energy_ratio(tmp_path / "conservative", ("model.BCType", "BIConservative_numeric")) <= 1.01
     coarse = _energy_ratio(tmp_path / "coarse")
     finer = _energy_ratio(tmp_path / "finer", ("dp", 0.03))
-    assert coarse < 1.035 and finer < coarse, (coarse, finer)
+    assert coarse < 1.04 and finer < coarse, (coarse, finer)
 
 
 # ------------------------------------------------------------------ conservation

@@ -257,10 +257,10 @@ def dam_break_classic(quick):
 
 
 #: a column a = 0.25 m, 50 particles across, with the model of the shipped ``dam_break_2d_bi``
-#: (consistent walls, Molteni diffusion, water's viscosity, inelastic bounce)
+#: (consistent walls, Fourtakas diffusion, water's viscosity, inelastic bounce)
 DAM_BREAK_BI = {"dim": 2, "dp": 0.005, "fluid": [{"min": [0.0, 0.0], "max": [0.25, 0.5]}],
                 "tank": {"min": [0.0, 0.0], "max": [1.0, 0.75], "open_top": True}, "time": {"end": 1.0},
-                "model": {"name": "bi", "BCType": "BIConsistent_numeric", "DiffusiveTerm": "MolteniDiffusiveTerm",
+                "model": {"name": "bi", "BCType": "BIConsistent_numeric", "DiffusiveTerm": "FourtakasDiffusiveTerm",
                           "ViscousTerm": "PhysicalViscosity_MGVT", "EOS": "LinearizedColeEquationOfState",
                           "elasticBounce": "epsilon", "elasticFactor": 0.0},
                 "parameters": {"dynamicViscosity": 1.0e-3, "delta": 0.1}, "output": {"vtk": False}}
