@@ -4,12 +4,14 @@ one kernel per pass, one thread per particle of set I.
 Everything stays on the device, with numba-cuda alone (no CuPy), the same in the simulator
 (``NUMBA_ENABLE_CUDASIM=1``) the tests run:
 
-* the sort is a counting sort on the cell ids: an atomic histogram, an exclusive scan of it
-  (the cell starts), an atomic scatter of the particle indices into their cells, then each
-  cell's indices put in increasing order (the scatter's order depends on the threads' timing;
-  after it the permutation is exactly the CPU's stable argsort), then the gather of every field;
+* the sort is a counting sort on the cell ids in six launches: an atomic histogram (with the
+  cell ids), an exclusive scan of it in two (the cell starts), an atomic scatter of the
+  particle indices into their cells, then each cell's indices put in increasing order (the
+  scatter's order depends on the threads' timing; after it the permutation is exactly the
+  CPU's stable argsort), then one gather of every field;
 * reductions (the step's largest speed and acceleration, a sum of residuals) are a block
-  reduction in shared memory and one final block; only the few results cross to the host;
+  reduction in shared memory, whose results the last block to finish reduces in the same
+  launch; only the few results cross to the host;
 * the check after a step also counts the particles outside the grid: when none is, the next
   sort of those positions keeps every particle without reading the count back, so a step
   whose time step needs the check copies one small array to the host, once.
@@ -21,11 +23,18 @@ import math
 import numpy as np
 from numba import cuda
 
+try:  # numba-cuda's own (the CUDA pipeline does not know Numba's)
+    from numba.cuda.misc.special import literal_unroll
+except ImportError:  # the simulator runs the Python source
+    from numba import literal_unroll
+
 from .walk import make_periodic_walk, make_run_visitor, particle_check
 
 THREADS = 128
-#: elements a thread scans serially in the cell-start scan (a level of the scan)
+#: the cell-start scan's chunks (the elements a thread scans serially): at least this long,
+#: and at most SCAN_CHUNKS many
 SCAN_CHUNK = 64
+SCAN_CHUNKS = 64 * THREADS
 
 
 def _blocks(n):
@@ -64,25 +73,19 @@ def _cell_ids_counted(x, origin, inv_cell, nx, ny, nz, ncells, k, cell, count):
 
 
 @cuda.jit
-def _gather_all1(src, perm, dst):
-    """dst[f][k] = src[f][perm[k]] for every 1D field f of a tuple of arrays of one type: one
-    launch for all the fields of a kind."""
+def _gather_fields(groups, perm, n):
+    """dst[c, k] = src[c, perm[k]] for every (components, particles) field pair of
+    ``groups``: a tuple, one entry per dtype, of (sources, destinations), each a tuple of
+    arrays of that dtype (1D fields as (1, n) views). One launch gathers every field."""
     k = cuda.grid(1)
-    if k < dst[0].size:
+    if k < n:
         j = perm[k]
-        for f in range(len(src)):
-            dst[f][k] = src[f][j]
-
-
-@cuda.jit
-def _gather_all2(src, perm, dst):
-    """``_gather_all1`` for (components, particles) fields."""
-    k = cuda.grid(1)
-    if k < dst[0].shape[1]:
-        j = perm[k]
-        for f in range(len(src)):
-            for d in range(src[f].shape[0]):
-                dst[f][d, k] = src[f][d, j]
+        for g in literal_unroll(groups):
+            for f in range(len(g[0])):
+                src = g[0][f]
+                dst = g[1][f]
+                for c in range(src.shape[0]):
+                    dst[c, k] = src[c, j]
 
 
 @cuda.jit
@@ -118,14 +121,46 @@ def _chunk_sums(a, chunk, sums):
 
 
 @cuda.jit
-def _chunk_scan(a, chunk, offsets, out):
-    """out[k] = offsets[t] + sum of a over the chunk's elements before k (exclusive); a is
-    left zero (the histogram's counts, consumed: the next sort counts from zero)."""
-    t = cuda.grid(1)
-    if t * chunk < a.size:
-        s = offsets[t]
-        for k in range(t * chunk, min((t + 1) * chunk, a.size)):
+def _scan_chunks(a, chunk, sums, out, fill):
+    """out[k] = fill[k] = the sum of a[:k] (exclusive), thread t of block b scanning chunk
+    c = b * THREADS + t from the sum of the chunks before it: the chunk sums before the
+    block's first (summed by the block's threads) plus the block's own up to c (a scan in
+    shared memory). a is left zero (the histogram's counts, consumed: the next sort counts
+    from zero). Launch with THREADS threads per block and one thread per chunk."""
+    tile = cuda.shared.array(THREADS, dtype=np.int64)
+    t = cuda.threadIdx.x
+    first = cuda.blockIdx.x * THREADS
+    s = 0
+    m = t
+    while m < first:
+        s += sums[m]
+        m += THREADS
+    tile[t] = s
+    cuda.syncthreads()
+    step = THREADS // 2
+    while step > 0:
+        if t < step:
+            tile[t] += tile[t + step]
+        cuda.syncthreads()
+        step //= 2
+    base = tile[0]
+    cuda.syncthreads()
+    c = first + t
+    own = sums[c] if c < sums.size else 0
+    tile[t] = own
+    cuda.syncthreads()
+    d = 1
+    while d < THREADS:  # inclusive scan of the block's chunk sums (Hillis & Steele)
+        v = tile[t - d] if t >= d else 0
+        cuda.syncthreads()
+        tile[t] += v
+        cuda.syncthreads()
+        d *= 2
+    if c < sums.size:
+        s = base + tile[t] - own
+        for k in range(c * chunk, min((c + 1) * chunk, a.size)):
             out[k] = s
+            fill[k] = s
             s += a[k]
             a[k] = 0
 
@@ -173,16 +208,16 @@ def _buffer(work, name, n):
     return a
 
 
-def _exclusive_scan(a, out, work, level=0):
-    """out[k] = sum of a[:k] (int64 device arrays of one length): chunks of SCAN_CHUNK summed,
-    the sums scanned the same way (recursively), then each chunk scanned from its offset."""
-    nchunks = math.ceil(a.size / SCAN_CHUNK)
-    offsets = _buffer(work, f"offsets{level}", nchunks)  # one chunk: its offset, 0 since allocated
-    if nchunks > 1:
-        sums = _buffer(work, f"sums{level}", nchunks)
-        _chunk_sums[_blocks(nchunks), THREADS](a, SCAN_CHUNK, sums)
-        _exclusive_scan(sums, offsets, work, level + 1)
-    _chunk_scan[_blocks(nchunks), THREADS](a, SCAN_CHUNK, offsets, out)
+def _exclusive_scan(a, out, fill, work):
+    """out[k] = fill[k] = sum of a[:k] (int64 device arrays of one length), a left zero; two
+    launches: the chunks' sums, then each chunk scanned from its offset. The chunks are at
+    least SCAN_CHUNK long and at most SCAN_CHUNKS many, which bounds the offsets' work (each
+    block sums the chunk sums before it)."""
+    chunk = max(SCAN_CHUNK, math.ceil(a.size / SCAN_CHUNKS))
+    nchunks = math.ceil(a.size / chunk)
+    sums = _buffer(work, "sums", nchunks)
+    _chunk_sums[_blocks(nchunks), THREADS](a, chunk, sums)
+    _scan_chunks[_blocks(nchunks), THREADS](a, chunk, sums, out, fill)
 
 
 def _counting_sort(cell, ncells, work, counted=False):
@@ -196,11 +231,10 @@ def _counting_sort(cell, ncells, work, counted=False):
     if n and not counted:
         _histogram[_blocks(n), THREADS](cell, count)
     start = _buffer(work, "start", ncells + 2)
-    _exclusive_scan(count, start, work)
+    fill = _buffer(work, "fill", ncells + 2)
+    _exclusive_scan(count, start, fill, work)
     perm = _buffer(work, "perm", n)
     if n:
-        fill = _buffer(work, "fill", ncells + 2)
-        fill.copy_to_device(start)
         _scatter_cells[_blocks(n), THREADS](cell, fill, perm)
         _order_cells[_blocks(ncells + 1), THREADS](start, perm)
     return perm, start
@@ -266,6 +300,7 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None
             if n:
                 run_periodic[_blocks(n), THREADS](I, J1, J2, P, G)
 
+        launch_periodic.kernel = run_periodic  # what ``backends.ptx`` compiles
         return launch_periodic
 
     @cuda.jit
@@ -293,6 +328,7 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None
         if n:
             run[_blocks(n), THREADS](I, J1, J2, P, G)
 
+    launch.kernel = run
     return launch
 
 
@@ -308,6 +344,7 @@ def _make_map_kernel(fn):
         if n:
             run[_blocks(n), THREADS](I, P)
 
+    launch.kernel = run
     return launch
 
 
@@ -329,13 +366,14 @@ def _make_reduce_kernel(fn):
         run[_blocks(n), THREADS](I, P, out)
         return _reduce_rows(out, ("sum", "sum", "max"), owned)
 
+    launch.kernel = run
     return launch
 
 
 @cuda.jit(device=True)
-def _block_tree(tile, acc, is_max, r, partial):
-    """partial[r, this block] = the block's threads' ``acc`` reduced (max or sum) in the
-    shared array ``tile``."""
+def _block_tree(tile, acc, is_max, r, out, col):
+    """out[r, col] = the block's threads' ``acc`` reduced (max or sum) in the shared array
+    ``tile``."""
     t = cuda.threadIdx.x
     tile[t] = acc
     cuda.syncthreads()
@@ -346,14 +384,38 @@ def _block_tree(tile, acc, is_max, r, partial):
         cuda.syncthreads()
         step //= 2
     if t == 0:
-        partial[r, cuda.blockIdx.x] = tile[0]
+        out[r, col] = tile[0]
     cuda.syncthreads()
 
 
+@cuda.jit(device=True)
+def _finish_if_last(tile, partial, is_max, final, counter):
+    """After every block wrote its column of ``partial``: the last block to get here reduces
+    the columns into final[r, 0] (sum, or max where is_max[r]) and resets ``counter`` for the
+    next launch. The reduction's second level in the same launch."""
+    t = cuda.threadIdx.x
+    last = cuda.shared.array(1, dtype=np.int64)
+    cuda.threadfence()  # this block's partial results visible to the others before its ticket
+    if t == 0:
+        last[0] = 1 if cuda.atomic.add(counter, 0, 1) == cuda.gridDim.x - 1 else 0
+    cuda.syncthreads()
+    if last[0] == 1:
+        for r in range(partial.shape[0]):
+            acc = -math.inf if is_max[r] else 0.0
+            m = t
+            while m < cuda.gridDim.x:
+                acc = max(acc, partial[r, m]) if is_max[r] else acc + partial[r, m]
+                m += THREADS
+            _block_tree(tile, acc, is_max[r], r, final, 0)
+        if t == 0:
+            counter[0] = 0
+
+
 @cuda.jit
-def _reduce_blocks(out, is_max, mask, masked, partial):
-    """partial[r, b]: row r of ``out`` reduced (sum, or max where is_max[r]) over the columns
-    of block b's grid-stride share (columns with mask[i] != 0 only, when ``masked``)."""
+def _reduce_blocks(out, is_max, mask, masked, partial, final, counter):
+    """final[r, 0]: row r of ``out`` reduced (sum, or max where is_max[r]) over its columns
+    (those with mask[i] != 0 only, when ``masked``): each block its grid-stride share into
+    partial[r, block], the last block those."""
     tile = cuda.shared.array(THREADS, dtype=np.float64)
     n = out.shape[1]
     for r in range(out.shape[0]):
@@ -364,14 +426,15 @@ def _reduce_blocks(out, is_max, mask, masked, partial):
                 v = out[r, i]
                 acc = max(acc, v) if is_max[r] else acc + v
             i += cuda.gridsize(1)
-        _block_tree(tile, acc, is_max[r], r, partial)
+        _block_tree(tile, acc, is_max[r], r, partial, cuda.blockIdx.x)
+    _finish_if_last(tile, partial, is_max, final, counter)
 
 
 @cuda.jit
-def _check_blocks(x, v, a, origin, inv_cell, nx, ny, nz, ncells, k, mask, masked, partial):
-    """The check's first reduction level, the per-particle figures made in it: partial[:, b]
-    = (largest |v|^2, largest |a|^2, particles with anything non-finite, particles outside
-    the grid) over block b's grid-stride share (owned ones only, when ``masked``)."""
+def _check_blocks(x, v, a, origin, inv_cell, nx, ny, nz, ncells, k, mask, masked, is_max, partial, final, counter):
+    """The check's figures, reduced in one launch: final[:, 0] = (largest |v|^2, largest
+    |a|^2, particles with anything non-finite, particles outside the grid) (owned ones only,
+    when ``masked``); ``is_max`` the rows' ops (max, max, sum, sum)."""
     tile = cuda.shared.array(THREADS, dtype=np.float64)
     vmax2 = 0.0
     amax2 = 0.0
@@ -389,13 +452,15 @@ def _check_blocks(x, v, a, origin, inv_cell, nx, ny, nz, ncells, k, mask, masked
             if _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k) == ncells:
                 outside += 1.0
         i += cuda.gridsize(1)
-    _block_tree(tile, vmax2, True, 0, partial)
-    _block_tree(tile, amax2, True, 1, partial)
-    _block_tree(tile, bad, False, 2, partial)
-    _block_tree(tile, outside, False, 3, partial)
+    b = cuda.blockIdx.x
+    _block_tree(tile, vmax2, True, 0, partial, b)
+    _block_tree(tile, amax2, True, 1, partial, b)
+    _block_tree(tile, bad, False, 2, partial, b)
+    _block_tree(tile, outside, False, 3, partial, b)
+    _finish_if_last(tile, partial, is_max, final, counter)
 
 
-#: blocks of the first reduction level (their partial results are reduced by one more block)
+#: blocks of the first reduction level (their partial results are reduced by the last block)
 REDUCE_BLOCKS = 128
 _OPS = {}  # the rows' ops as device flags, per tuple of ops
 
@@ -416,10 +481,16 @@ def _mask(owned):
     return owned if hasattr(owned, "copy_to_host") else cuda.to_device(np.ascontiguousarray(owned))
 
 
-def _finish_rows(partial, ops):
-    """The first level's per-block results reduced by one block, copied to the host."""
-    final = _scratch((len(ops), 1))
-    _reduce_blocks[1, THREADS](partial, _flags(ops), _mask(None), False, final)
+def _counter():
+    """The last-block counter of the reductions (zero between launches: the last block resets
+    it), allocated once."""
+    if "counter" not in _OPS:
+        _OPS["counter"] = cuda.to_device(np.zeros(1, dtype=np.int64))
+    return _OPS["counter"]
+
+
+def _rows_to_host(final, ops):
+    """The reduced rows copied to the host (a max over no column: 0)."""
     r = final.copy_to_host()[:, 0]
     return tuple(0.0 if (op == "max" and v == -math.inf) else float(v) for v, op in zip(r, ops))
 
@@ -432,9 +503,9 @@ def _reduce_rows(out, ops, owned=None):
     if n == 0:
         return (0.0,) * rows
     nb = min(REDUCE_BLOCKS, _blocks(n))
-    partial = _scratch((rows, nb))
-    _reduce_blocks[nb, THREADS](out, _flags(ops), _mask(owned), owned is not None, partial)
-    return _finish_rows(partial, ops)
+    partial, final = _scratch((rows, nb)), _scratch((rows, 1))
+    _reduce_blocks[nb, THREADS](out, _flags(ops), _mask(owned), owned is not None, partial, final, _counter())
+    return _rows_to_host(final, ops)
 
 
 def _on_device(grid, dt):
@@ -515,19 +586,21 @@ class CudaBackend:
         # the set's spare copy of each field, which then swaps with it (ping-pong: no
         # allocation while the count holds)
         spare = pset.__dict__.setdefault("_spare", {})
-        kinds = {}  # the fields by array type: one gather launch for each
+        groups = {}  # (sources, destinations) by dtype, as (components, particles) views
         for k in fields:
             a = pset[k]
             out = spare.get(k)
             if out is None or out.shape != a.shape[:-1] + (n_in,) or out.dtype != a.dtype:
                 out = cuda.device_array(a.shape[:-1] + (n_in,), dtype=a.dtype)
-            kinds.setdefault((a.ndim, a.dtype.str, a.shape[:-1]), []).append((a, out))
+            if n_in:
+                src, dst = groups.setdefault(a.dtype.str, ([], []))
+                comps = int(np.prod(a.shape[:-1]))
+                src.append(a.reshape(comps, n))
+                dst.append(out.reshape(comps, n_in))
             pset[k] = out
             spare[k] = a
         if n_in:
-            for pairs in kinds.values():
-                gather = _gather_all1 if pairs[0][0].ndim == 1 else _gather_all2
-                gather[_blocks(n_in), THREADS](tuple(a for a, _ in pairs), perm, tuple(o for _, o in pairs))
+            _gather_fields[_blocks(n_in), THREADS](tuple((tuple(a), tuple(b)) for a, b in groups.values()), perm, n_in)
         if dropped:
             for k in scratch:  # written before they are read: only their size matters
                 pset[k] = cuda.device_array(pset[k].shape[:-1] + (n_in,), dtype=pset[k].dtype)
@@ -586,8 +659,9 @@ class CudaBackend:
             origin, inv = _on_device(grid, np.dtype(x.dtype).type)
             nx, ny, nz, ncells, k = g.nx, g.ny, g.nz, g.ncells, g.k
         nb = min(REDUCE_BLOCKS, _blocks(n))
-        partial = _scratch((4, nb))
+        partial, final = _scratch((4, nb)), _scratch((4, 1))
+        ops = ("max", "max", "sum", "sum")
         _check_blocks[nb, THREADS](x, pset["v"], pset["dvdt"], origin, inv, nx, ny, nz, ncells, k, _mask(owned),
-                                   owned is not None, partial)
-        vmax2, amax2, bad, outside = _finish_rows(partial, ("max", "max", "sum", "sum"))
+                                   owned is not None, _flags(ops), partial, final, _counter())
+        vmax2, amax2, bad, outside = _rows_to_host(final, ops)
         return vmax2, amax2, int(bad), int(outside)

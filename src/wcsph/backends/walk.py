@@ -64,7 +64,7 @@ def make_periodic_walk(dim, visit1, visit2, use2, zero, periodic, inline="never"
     pz = periodic[2] if len(periodic) > 2 else False
     ftype = type(zero)
 
-    @register_jitable(inline="always")
+    @register_jitable(inline=inline)  # numba-cuda cannot compile Numba's inlined form
     def image(r, pos, k, n, length):
         """Cell index r along a periodic axis of n real cells (k..k+n-1) and i's coordinate
         there: a ghost cell becomes its image, the coordinate shifted by the length."""
