@@ -34,7 +34,7 @@ CASES = [
     ("spheric2_3d", 0.1, {}, True),
     ("hydrostatic_2d", 0.05, {}, True),
     ("hydrostatic_2d_bi", 0.1, {}, True),
-    ("poiseuille_2d", 1e-4, {}, True),
+    ("poiseuille_2d", 5e-5, {}, True),
     ("poiseuille_open_2d", 0.05, {}, True),
     ("taylor_green_2d", 0.05, {}, True),
     ("moving_square_2d", 0.1, {}, True),

@@ -124,22 +124,21 @@ def make_store_corr(ctx):
 
 
 def make_apply(ctx, field, scale_dt):
-    """``field`` (``x`` or ``v``) += corr (times P.dt with ``scale_dt``)."""
+    """``field`` (``x`` or ``v``) += corr (times P.dt with ``scale_dt``). Two functions, not a
+    getter of the field: numba-cuda does not return an array a device function did not take
+    as an argument."""
     dim, one = ctx.dim, ctx.dtype(1)
     if field == "x":
         @register_jitable
-        def get(I):
-            return I.x
+        def apply(i, I, P):
+            k = P.dt if scale_dt else one
+            for d in range(dim):
+                I.x[d, i] += k * I.corr[d, i]
     else:
         @register_jitable
-        def get(I):
-            return I.v
-
-    @register_jitable
-    def apply(i, I, P):
-        a = get(I)
-        k = P.dt if scale_dt else one
-        for d in range(dim):
-            a[d, i] += k * I.corr[d, i]
+        def apply(i, I, P):
+            k = P.dt if scale_dt else one
+            for d in range(dim):
+                I.v[d, i] += k * I.corr[d, i]
 
     return apply
