@@ -143,3 +143,36 @@ def test_wall_pressure_is_exact_in_a_fluid_accelerating_with_the_wall(a_wall, P,
     assert acc[2] > 0
     assert acc[0] / acc[2] == pytest.approx(rho * (g - a_wall) @ (xb - xs), rel=1e-12, abs=1e-9)
 
+
+
+def test_wall_corrections_leave_a_particle_beside_a_convex_corner(ctx):
+    """The elastic bounce and NBVC-PST of one boundary element, called directly: the element
+    is a square's front face (normal -x, out of the fluid that lies at x > 0), moving at
+    U = 1 m/s into water at rest. A particle in front of it (or one that got behind it, over
+    it) is bounced to 2U and pushed back to its radius; one behind its plane but beside it,
+    over the square's top face round the corner, is left alone (it was bounced to 2U before,
+    which made the water over SPHERIC 6's square run ahead of it)."""
+    from wcsph.physics.wall_corrections import make_init, make_wall_corrections
+
+    dp = 0.01
+    Elem = namedtuple("Elem", "x n v elementSize")
+    Fluid = namedtuple("Fluid", "x v m rho")
+    Par = namedtuple("Par", "back r_box2 dt min_dist elastic")
+    J = Elem(np.zeros((3, 1)), np.array([[-1.0], [0.0], [0.0]]), np.array([[1.0], [0.0], [0.0]]), np.array([dp]))
+    P = Par(0.55 * dp, (1.5 * dp) ** 2, 1e-4, 0.5 * dp, 1.0)
+    term = make_wall_corrections(ctx, True, False, True)
+    init = make_init(ctx)
+
+    def corrected(x, y):
+        I = Fluid(np.array([[x], [y], [0.0]]), np.zeros((3, 1)), np.array([1000 * dp * dp]), np.array([1000.0]))
+        acc0 = init(0, I, P)
+        acc = term(0, 0, x, y, 0.0, float(np.hypot(x, y)), I, J, P, acc0)
+        return acc[0], acc[3]  # v_x after, x shift
+
+    radius = 0.5 * dp
+    v, s = corrected(0.3 * dp, 0.1 * dp)  # in front, closer than its radius, the wall approaching
+    assert v == pytest.approx(2.0) and s == pytest.approx(radius - 0.3 * dp)
+    v, s = corrected(-0.3 * dp, 0.2 * dp)  # behind the plane over the element: in the wall
+    assert v == pytest.approx(2.0) and s == pytest.approx(radius + 0.3 * dp)
+    v, s = corrected(-0.3 * dp, 1.2 * dp)  # behind the plane beside it: over the next face
+    assert v == 0.0 and s == 0.0

@@ -10,7 +10,13 @@ An element acts on a particle whose projection on the element's plane lies withi
 r_box = ``r_boxFactor`` dp of its centre, and which is not further behind the plane than it
 may be pushed back (``P.back`` = max(h_fac dp, 0.55 dp): the larger of the bounce distance and
 a particle's radius, about dp/2); its distance from the wall is dist = -(x_i - x_b) . n_b (n_b
-points out of the fluid).
+points out of the fluid). Behind the plane (dist < 0) only a particle over the element itself
+(its projection within the element: S/2 of the centre in 2D, the square's half diagonal
+sqrt(S/2) in 3D): round a convex corner, a particle beside the element and behind its plane is
+over the next face, outside the body. (With the r_box reach there, the water flowing over the
+top of SPHERIC 6's square within a spacing of its leading edge was bounced off the front face,
+its velocity along the top reflected to 2 U - u, and pushed forward by NBVC-PST: the friction
+on the square's sides came out with the wrong sign.)
 """
 import math
 
@@ -28,6 +34,7 @@ def make_wall_corrections(ctx, bounce, epsilon_bounce, shift):
     cell its volume fills, so the volume does not reach into the wall) is moved along n_b back
     to that distance."""
     dim, zero, one = ctx.dim, ctx.zero, ctx.dtype(1)
+    quarter, half = ctx.dtype(0.25), ctx.dtype(0.5)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
@@ -38,7 +45,13 @@ def make_wall_corrections(ctx, bounce, epsilon_bounce, shift):
         nz = J.n[2, j] if dim == 3 else zero
         d = rx * nx + ry * ny + rz * nz
         dist = -d
-        if dist < -P.back or rx * rx + ry * ry + rz * rz - d * d >= P.r_box2:
+        lateral2 = rx * rx + ry * ry + rz * rz - d * d
+        if dist < -P.back or lateral2 >= P.r_box2:
+            return acc
+        # behind the element's plane only over the element itself: beside it, round a convex
+        # corner, the particle is outside the body (over the next face), not in the wall
+        size = J.elementSize[j]
+        if dist < zero and lateral2 > (quarter * size * size if dim == 2 else half * size):
             return acc
         if bounce:
             vbz = J.v[2, j] if dim == 3 else zero
