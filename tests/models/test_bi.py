@@ -333,6 +333,8 @@ def test_spec_parameter_names_and_derived_defaults():
     ({"model": {"name": "bi", "xsph": 0.1}}, "model.xsph: expected a string, got 0.1"),
     ({"model": {"name": "bi", "ViscousTerm": "Laminar"}}, "model.ViscousTerm: must be one of"),
     ({"model": {"name": "bi", "elasticFactor": 2.0}}, "model.elasticFactor: must lie in [0, 1]"),
+    ({"model": {"name": "bi", "ViscousTerm": "ArtificialViscosity", "pressure": "Monaghan1992ArtificialViscosity"}},
+     "model.pressure: 'Monaghan1992ArtificialViscosity' carries an artificial viscosity"),
 ])
 def test_bi_case_errors_name_the_key(data, message):
     base = {"dim": 2, "dp": 0.05, "time": {"end": 0.1}, "fluid": [{"min": [0.0, 0.0], "max": [0.5, 0.5]}],

@@ -185,6 +185,15 @@ add("pressure", Choice(
 add("pressure", Choice(
     "Monaghan1992", "Monaghan (1992); Becker & Teschner (2007) eq. 6",
     "a_i -= sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) grad_i W_ij", build=_build_monaghan, implies=frozenset({"pr"})))
+def _one_artificial_viscosity(m):
+    """Pi_ij (its ``av_alpha``) and the viscous slot's artificial viscosity (its ``alpha``, the
+    WCSPH-BI spec's) are two forms of one term (Monaghan 1992): a case takes one of them."""
+    if m["ViscousTerm"] == "ArtificialViscosity":
+        return ("pressure", "'Monaghan1992ArtificialViscosity' carries an artificial viscosity (av_alpha, av_beta) and "
+                "model.ViscousTerm = 'ArtificialViscosity' is a second one (alpha): choose one of them")
+    return None
+
+
 add("pressure", Choice(
     "Monaghan1992ArtificialViscosity", "third spec: momentum equation with artificial viscosity (Monaghan 1992)",
     "a_i -= sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2 + Pi_ij) grad_i W_ij, Pi_ij with alpha and beta",
@@ -193,4 +202,4 @@ add("pressure", Choice(
                   check=NONNEG)),
     p_fields=("av_alpha_h", "av_beta_h2"),
     values=lambda q: {"av_alpha_h": q.m["av_alpha"] * q.h, "av_beta_h2": q.m["av_beta"] * q.h * q.h},
-    build=_build_monaghan_av, implies=frozenset({"pr", "sound", "wall_volume"})))
+    build=_build_monaghan_av, implies=frozenset({"pr", "sound", "wall_volume"}), check=_one_artificial_viscosity))
