@@ -44,6 +44,7 @@ CASES = [
     ("dam_break_2d_bi", 0.05, {"model.kernel_correction": "CSPM", "model.collision": "DPC",
                               "model.shifting": "DeltaPlus", "model.xsph": "position",
                               "model.pressure": "Monaghan1992ArtificialViscosity"}, True),
+    ("floating_box_waves_3d", 0.08, {}, True),
     ("dam_break_2d", 0.1, {"model.kernel_correction": "CSPM", "model.shifting": "Lind",
                            "model.density": "continuity", "model.DiffusiveTerm": "MolteniDiffusiveTerm"}, True),
 ]
