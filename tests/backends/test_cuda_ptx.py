@@ -11,7 +11,7 @@ pytest.importorskip("numba.cuda")
 
 SCRIPT = r"""
 import json, sys
-from wcsph.backends import ptx
+from wcsph.validation import ptx
 from wcsph.case.config import load
 why = ptx.available()
 if why:

@@ -300,7 +300,7 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None
             if n:
                 run_periodic[_blocks(n), THREADS](I, J1, J2, P, G)
 
-        launch_periodic.kernel = run_periodic  # what ``backends.ptx`` compiles
+        launch_periodic.kernel = run_periodic  # what ``validation.ptx`` compiles
         return launch_periodic
 
     @cuda.jit

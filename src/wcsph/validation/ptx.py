@@ -10,7 +10,7 @@ receives the same particle-set views, parameter tuple and grid view on both back
 cell starts are int64 on the GPU, uint64 on the CPU; their type is mapped). Needs NVVM and
 NVRTC (``pip install "numba-cuda[cu13]"``, in the ``test`` extra); no driver.
 
-    python -m wcsph.backends.ptx CASE [--dp DP] [--cc 9.0]
+    python -m wcsph.validation.ptx CASE [--dp DP] [--cc 9.0]
 """
 import argparse
 import collections
@@ -48,8 +48,8 @@ def record(case, steps=2):
     """The passes, maps and reductions of ``case`` (a validated case dict) with their first
     arguments, from ``steps`` steps on the CPU backend."""
     from ..run.simulation import Simulation
-    from .cpu import CpuBackend
-    from .cuda import CudaBackend
+    from ..backends.cpu import CpuBackend
+    from ..backends.cuda import CudaBackend
 
     made = []
     originals = {k: getattr(CpuBackend, k) for k in ("make_pass", "make_map", "make_reduce")}
@@ -89,7 +89,7 @@ def record(case, steps=2):
 
 def _backend_kernels(dtype, dim):
     """(name, kernel, argument values) for the backend's own kernels in one precision."""
-    from . import cuda as cb
+    from ..backends import cuda as cb
 
     f = np.zeros(4, dtype=dtype)
     x = np.zeros((dim, 4), dtype=dtype)
