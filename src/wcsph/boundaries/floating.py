@@ -47,8 +47,10 @@ the fluid's step is by far). Each spring's tension is a probes.csv column.
 
 Contact: a body meets the tank's walls (its faces, the open top aside) as rigid, inelastic
 contact: after each step, a wall point of the body that has passed a tank face puts the body
-back on the face (along its free axes) and the body's velocity and acceleration into the face
-are removed. A body resting on the floor stays there; one thrown at a wall stops at it. The
+back on the face (along its free axes), and an impulse along the face's normal through the
+contact (the centroid of the points past the face) removes the velocity into the face there,
+turning the body as well (rigid, inelastic, frictionless). A body resting on the floor stays
+there; one thrown at a wall stops at it; one landing on a corner falls flat. The
 same holds a body out of the case's fixed obstacle boxes: wall points of the body inside one
 move the body out by the least push along a free axis, and its velocity into the box goes.
 Two floating boxes (``collide``) are parted the same way in the frame of the one entered, the
@@ -284,24 +286,61 @@ class FloatingBody:
 
     def _contact(self):
         """Back inside the tank's faces: the deepest wall point past a face puts the body
-        back on it along the free axes, and the velocity and acceleration into it go."""
+        back on it along the free axes. Then impulses along the face's normal through the
+        contact points (the extremes, along the face, of the wall points past it: a corner,
+        an edge's ends, a face's outline) remove the velocity into the face at each of them:
+        sequential impulses, each point's total kept non-negative (projected Gauss-Seidel),
+        swept until they settle. A body landing on a corner turns, one landing flat stops
+        (rigid, inelastic, frictionless). The accelerations likewise."""
         R = self.R if self.dim == 3 else _rot2(self.theta)
         x = self.c[:, None] + R @ self.points
         for n, o in self.planes:
-            depth = float(np.max(o - n @ x)) if x.shape[1] else 0.0
-            if depth <= 0.0:
+            past = (o - n @ x) > 0.0 if x.shape[1] else np.zeros(0, dtype=bool)
+            if not past.any():
                 continue
+            depth = float(np.max(o - n @ x[:, past]))
             m = n * self.free_t
             if not m @ n > 0.0:
                 continue  # the body cannot move off this face (its axis is held)
             shift = depth / (m @ n) * m
+            r = _extremes(x[:, past] - self.c[:, None], n)  # the contact points about the centre
             self.c = self.c + shift
             x = x + shift[:, None]
-            for name in ("u", "du"):
-                w = getattr(self, name)
-                into = float(w @ n)
-                if into < 0.0:
-                    setattr(self, name, w - into * n * self.free_t)
+            resp = [self._response(n, r[:, k]) for k in range(r.shape[1])]
+            for a, b in (("u", "omega"), ("du", "alpha")):
+                u, w = getattr(self, a), getattr(self, b)
+                J = np.zeros(len(resp))  # each point's impulse so far, never negative
+                for _ in range(CONTACT_SWEEPS):
+                    moved = 0.0
+                    for k, (ju, jw, inv, rk) in enumerate(resp):
+                        into = self._into(n, rk, u, w)
+                        new = max(J[k] - into / inv, 0.0)
+                        dj = new - J[k]
+                        if dj != 0.0:
+                            u, w = u + dj * ju, w + dj * jw
+                            J[k] = new
+                            moved = max(moved, abs(dj) / inv)
+                    if moved <= CONTACT_TOL:
+                        break
+                setattr(self, a, u)
+                setattr(self, b, w)
+
+    def _response(self, n, r):
+        """(du, dw, 1/m_eff, r) of a unit impulse along n through the point r (about the
+        centre): n/M on the free translations, I^-1 (r x n) on the free rotations (2D: dw a
+        number), and the point's speed along n that it makes."""
+        if self.dim == 2:
+            rn = r[0] * n[1] - r[1] * n[0]
+            dw = rn / self.inertia if self.free_r[0] else 0.0
+            return self.free_t * n / self.mass, dw, float(self.free_t @ (n * n)) / self.mass + rn * dw, r
+        dw = _solve_free(self.R @ self.inertia @ self.R.T, np.cross(r, n), self.free_r)
+        return self.free_t * n / self.mass, dw, float(self.free_t @ (n * n)) / self.mass + float(np.cross(r, n) @ dw), r
+
+    def _into(self, n, r, u, w):
+        """The point r's speed along n, (u + w x r) . n (negative: into the face)."""
+        if self.dim == 2:
+            return float(u @ n) + w * (r[0] * n[1] - r[1] * n[0])
+        return float(u @ n + np.cross(w, r) @ n)
 
     def _leave_blocks(self):
         """Out of each fixed box: when wall points of the body are inside one, the body is
@@ -391,6 +430,32 @@ class Spring:
 def _rot2(theta):
     c, s = math.cos(theta), math.sin(theta)
     return np.array([[c, -s], [s, c]])
+
+
+#: sweeps over a contact's points (sequential impulses), and the speed into a face [m/s, or
+#: m/s^2 for the accelerations] below which a point counts as stopped
+CONTACT_SWEEPS = 64
+CONTACT_TOL = 1e-14
+
+
+def _extremes(r, n):
+    """The contact points that matter among the points r (dim, K) on a face of normal n: the
+    ones at the ends of the patch along the face (2D: the two ends; 3D: the ends along two
+    directions in the face and along their diagonals), each once."""
+    if r.shape[1] <= 2:
+        return r
+    if r.shape[0] == 2:
+        dirs = [np.array([-n[1], n[0]])]
+    else:
+        t1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+        t1 /= np.linalg.norm(t1)
+        t2 = np.cross(n, t1)
+        dirs = [t1, t2, t1 + t2, t1 - t2]
+    keep = set()
+    for d in dirs:
+        s = d @ r
+        keep.update((int(np.argmin(s)), int(np.argmax(s))))
+    return r[:, sorted(keep)]
 
 
 def _parallel_axes(mass, r):
