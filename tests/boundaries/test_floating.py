@@ -412,19 +412,23 @@ def test_the_3d_floating_box_demonstration_floats(tmp_path):
     assert not inside.any(), int(inside.sum())
 
 
+@pytest.mark.parametrize("surface", ["floor", "block"])
 @pytest.mark.parametrize("dim", [2, 3])
-def test_a_tilted_box_dropped_on_the_floor_falls_flat(dim):
+def test_a_tilted_box_dropped_on_the_floor_falls_flat(dim, surface):
     """The contact with a tank face pushes through the contact point, so it turns the body: a
     box tilted by 0.4 rad and dropped lands on a corner and falls onto a face, ending at rest
     with its face on the floor (turned by a multiple of 90 degrees, within 0.01 rad; its lowest
     point on the floor within 1e-9 m). Without the contact's torque it would stay balanced on
-    its corner at 0.4 rad."""
+    its corner at 0.4 rad. The same on a fixed obstacle box."""
     from wcsph.boundaries.floating import tank_planes
 
     b = _body(dim)
     lo, hi = 0.4, 0.6
     corners = np.array(np.meshgrid(*[[lo, hi]] * dim, indexing="ij")).reshape(dim, -1)
-    b.meet(corners, tank_planes({"min": [0.0] * dim, "max": [1.0] * dim, "open_top": True}, dim))
+    if surface == "floor":
+        b.meet(corners, tank_planes({"min": [0.0] * dim, "max": [1.0] * dim, "open_top": True}, dim))
+    else:  # a fixed obstacle box below the body, its top at the same height as the floor
+        b.meet(corners, [], [([-1.0] * dim, [2.0] * (dim - 1) + [0.0])])
     a = 0.4
     if dim == 2:
         b.theta = a

@@ -52,7 +52,8 @@ contact (the centroid of the points past the face) removes the velocity into the
 turning the body as well (rigid, inelastic, frictionless). A body resting on the floor stays
 there; one thrown at a wall stops at it; one landing on a corner falls flat. The
 same holds a body out of the case's fixed obstacle boxes: wall points of the body inside one
-move the body out by the least push along a free axis, and its velocity into the box goes.
+move the body out by the least push along a free axis, and impulses through them take its
+velocity into the box out, turning it as at the tank's faces.
 Two floating boxes (``collide``) are parted the same way in the frame of the one entered, the
 push shared in inverse proportion to their masses, their approach removed with momentum kept
 (the contact's torque is left out). A body that is not a box, a moving obstacle, a polygon
@@ -306,24 +307,31 @@ class FloatingBody:
             r = _extremes(x[:, past] - self.c[:, None], n)  # the contact points about the centre
             self.c = self.c + shift
             x = x + shift[:, None]
-            resp = [self._response(n, r[:, k]) for k in range(r.shape[1])]
-            for a, b in (("u", "omega"), ("du", "alpha")):
-                u, w = getattr(self, a), getattr(self, b)
-                J = np.zeros(len(resp))  # each point's impulse so far, never negative
-                for _ in range(CONTACT_SWEEPS):
-                    moved = 0.0
-                    for k, (ju, jw, inv, rk) in enumerate(resp):
-                        into = self._into(n, rk, u, w)
-                        new = max(J[k] - into / inv, 0.0)
-                        dj = new - J[k]
-                        if dj != 0.0:
-                            u, w = u + dj * ju, w + dj * jw
-                            J[k] = new
-                            moved = max(moved, abs(dj) / inv)
-                    if moved <= CONTACT_TOL:
-                        break
-                setattr(self, a, u)
-                setattr(self, b, w)
+            self._impulses(n, r)
+
+    def _impulses(self, n, r):
+        """Impulses along n through the contact points r (dim, K, about the centre) that take
+        the velocity into the surface out at each of them: sequential impulses, each point's
+        total kept non-negative (projected Gauss-Seidel), swept until they settle; then the
+        accelerations likewise."""
+        resp = [self._response(n, r[:, k]) for k in range(r.shape[1])]
+        for a, b in (("u", "omega"), ("du", "alpha")):
+            u, w = getattr(self, a), getattr(self, b)
+            J = np.zeros(len(resp))  # each point's impulse so far, never negative
+            for _ in range(CONTACT_SWEEPS):
+                moved = 0.0
+                for k, (ju, jw, inv, rk) in enumerate(resp):
+                    into = self._into(n, rk, u, w)
+                    new = max(J[k] - into / inv, 0.0)
+                    dj = new - J[k]
+                    if dj != 0.0:
+                        u, w = u + dj * ju, w + dj * jw
+                        J[k] = new
+                        moved = max(moved, abs(dj) / inv)
+                if moved <= CONTACT_TOL:
+                    break
+            setattr(self, a, u)
+            setattr(self, b, w)
 
     def _response(self, n, r):
         """(du, dw, 1/m_eff, r) of a unit impulse along n through the point r (about the
@@ -344,8 +352,9 @@ class FloatingBody:
 
     def _leave_blocks(self):
         """Out of each fixed box: when wall points of the body are inside one, the body is
-        moved out by the shortest push along a free axis that clears them all, and its
-        velocity and acceleration into the box go (rigid, inelastic, as at the tank's faces)."""
+        moved out by the shortest push along a free axis that clears them all, and impulses
+        through the points that were inside take the velocity and acceleration into the box
+        out (rigid, inelastic, frictionless, turning the body, as at the tank's faces)."""
         R = self.R if self.dim == 3 else _rot2(self.theta)
         for lo, hi in self.blocks:
             x = self.c[:, None] + R @ self.points
@@ -358,11 +367,9 @@ class FloatingBody:
             need, a, sign = best
             n = np.zeros(self.dim)
             n[a] = sign
+            r = _extremes(x[:, inside] - self.c[:, None], n)  # the contact points about the centre
             self.c = self.c + need * n
-            for name in ("u", "du"):
-                w = getattr(self, name)
-                if float(w @ n) < 0.0:
-                    setattr(self, name, w - float(w @ n) * n)
+            self._impulses(n, r)
 
     def columns(self, name):
         """The probes.csv columns of this body's state."""
