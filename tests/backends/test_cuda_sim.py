@@ -8,6 +8,18 @@ import pytest
 
 pytest.importorskip("numba.cuda")
 
+#: ``WCSPH_CUDA_DEVICE=1`` runs these comparisons on the machine's GPU instead of the simulator
+#: (``benchmarks/device_check.sh``, for a session that is lent one)
+ON_DEVICE = os.environ.get("WCSPH_CUDA_DEVICE") == "1"
+
+
+def _env():
+    """The subprocess's environment: Numba's CUDA simulator, or the GPU with ``ON_DEVICE``."""
+    if ON_DEVICE:
+        return {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+    return dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+
+
 #: the simulator runs each thread of a block as a Python thread: blocks of 32 (not 128) make
 #: its launches 2-3 times faster, and the kernels are written for any block size
 FAST_SIMULATOR = "import wcsph.backends.cuda as cb; cb.THREADS = 32\n"
@@ -67,7 +79,7 @@ def test_cuda_kernels_match_cpu_in_simulator(name, dp, extra):
     shifting, XSPH on the positions, Monaghan's Pi) in both models; the periodic walk with a
     moving wall (Couette) and the open-boundary buffers, whose particles enter the fluid and are
     created within the run; a floating body (its loads read back from the device each step)."""
-    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    env = _env()
     r = subprocess.run([sys.executable, "-c", SCRIPT, name, str(dp), json.dumps(extra)], capture_output=True, text=True,
                        env=env, timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -111,7 +123,7 @@ def test_device_counting_sort_and_reduction_in_simulator():
     """The device sort (histogram, scan, scatter, in-cell order) gives exactly the CPU's stable
     argsort and cell starts, buffers reused or not; the block reduction gives numpy's sums and
     maxima, over all columns or the owned ones."""
-    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    env = _env()
     r = subprocess.run([sys.executable, "-c", SORT_SCRIPT], capture_output=True, text=True, env=env, timeout=600)
     assert r.returncode == 0 and r.stdout.strip().endswith("ok"), r.stderr[-3000:]
 
@@ -163,7 +175,7 @@ def test_particles_leaving_the_domain_on_the_device():
     """A block thrown out of the domain at 30 m/s, adaptive time step (five particles leave at
     the sixth of eight steps): the device drops the same particles at the same step as the CPU (the sort reads the count back only after a
     check that saw a particle outside), and the survivors are where the CPU's are."""
-    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    env = _env()
     r = subprocess.run([sys.executable, "-c", LEAVING], capture_output=True, text=True, env=env, timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
     res = json.loads(r.stdout.strip().splitlines()[-1])
@@ -176,7 +188,7 @@ def test_cuda_matches_cpu_in_float32_with_the_adaptive_step():
     check, read each step): the device's positions, velocities, densities and pressures are
     the CPU's to a few units of float32's last place (measured: 1e-8 m, 1e-5 of the largest
     speed, 2e-7 of the density, 2e-5 of the largest pressure), and the steps are the same."""
-    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    env = _env()
     extra = {"precision": "float32", "time.dt": 0.0}
     r = subprocess.run([sys.executable, "-c", SCRIPT, "dam_break_2d_bi", "0.05", json.dumps(extra)], capture_output=True,
                        text=True, env=env, timeout=600)

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# The GPU checks of issue 21 as one prepared run, for a session that is lent an NVIDIA GPU
+# (the `device` tool runs it in the repository root, $OUT its output folder):
+#
+#   1. the CPU-vs-CUDA comparisons of tests/backends/test_cuda_sim.py on the GPU itself
+#      (WCSPH_CUDA_DEVICE=1: float64 to round-off in 2D and 3D, both models, the integrators,
+#      the corrections, periodic walls, open boundaries, a floating body; float32 with the
+#      adaptive step; particles leaving the domain; the device sort and reductions);
+#   2. benchmarks/gpu.py: ms per step and fluid particle-steps per second for the cases the
+#      issue names (2D 100 k and 1.6 M, SPHERIC 2 at dp 0.01, 3D 5 M), as JSON and as the
+#      README's table.
+#
+# The device's image has numba, numba-cuda, numpy, matplotlib, scikit-image, rich, pytest and
+# hypothesis (see the device tool's KINDS.md); what it lacks travels as wheels in .whl/ (git
+# ignores it), made here beforehand for its Python 3.12:
+#
+#   echo /.whl/ >> .git/info/exclude
+#   python3 -m pip download --no-deps --only-binary=:all: --python-version 3.12 \
+#       --implementation cp --platform manylinux2014_x86_64 -d .whl meshio==5.3.5
+#
+# and the call names .whl in `carry`, e.g. with a limit that leaves time to rerun:
+#   bash benchmarks/device_check.sh            (timeout_s 540)
+# Each part is bounded by its own timeout, and its output goes to $OUT as it runs.
+set -u
+OUT=${OUT:-runs/device_check}
+mkdir -p "$OUT"
+export PYTHONUNBUFFERED=1
+if ls .whl/*.whl >/dev/null 2>&1; then
+    python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site .whl/*.whl \
+        && export PYTHONPATH=/tmp/site
+fi
+export PYTHONPATH="$PWD/src${PYTHONPATH:+:$PYTHONPATH}"
+{ nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv; python3 -c "import numba, numba_cuda; print('numba', numba.__version__, 'numba-cuda', numba_cuda.__version__)"; } 2>&1 | tee "$OUT/machine.txt"
+
+WCSPH_CUDA_DEVICE=1 timeout 240 python3 -m pytest -q -p no:cacheprovider -o addopts="" -n 4 \
+    tests/backends/test_cuda_sim.py -k "not benchmark and not reads_the_device_once" 2>&1 | tee "$OUT/tests.log"
+
+timeout 240 python3 benchmarks/gpu.py --json 2>&1 | tee "$OUT/gpu.jsonl"
