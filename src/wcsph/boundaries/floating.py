@@ -47,9 +47,9 @@ the fluid's step is by far). Each spring's tension is a probes.csv column.
 
 Contact: a body meets the tank's walls (its faces, the open top aside) as rigid, inelastic
 contact: after each step, a wall point of the body that has passed a tank face puts the body
-back on the face (along its free axes), and an impulse along the face's normal through the
-contact (the centroid of the points past the face) removes the velocity into the face there,
-turning the body as well (rigid, inelastic, frictionless). A body resting on the floor stays
+back on the face (along its free axes), and impulses along the face's normal through the
+contact points (the ends, along the face, of the points past it) remove the velocity into the
+face there, turning the body as well (rigid, inelastic, frictionless). A body resting on the floor stays
 there; one thrown at a wall stops at it; one landing on a corner falls flat. The
 same holds a body out of the case's fixed obstacle boxes: wall points of the body inside one
 move the body out by the least push along a free axis, and impulses through them take its
@@ -320,8 +320,8 @@ class FloatingBody:
             J = np.zeros(len(resp))  # each point's impulse so far, never negative
             for _ in range(CONTACT_SWEEPS):
                 moved = 0.0
-                for k, (ju, jw, inv, rk) in enumerate(resp):
-                    into = self._into(n, rk, u, w)
+                for k, (ju, jw, inv, arm) in enumerate(resp):
+                    into = float(u @ n + np.dot(w, arm))  # the point's speed along n
                     new = max(J[k] - into / inv, 0.0)
                     dj = new - J[k]
                     if dj != 0.0:
@@ -334,21 +334,16 @@ class FloatingBody:
             setattr(self, b, w)
 
     def _response(self, n, r):
-        """(du, dw, 1/m_eff, r) of a unit impulse along n through the point r (about the
-        centre): n/M on the free translations, I^-1 (r x n) on the free rotations (2D: dw a
-        number), and the point's speed along n that it makes."""
+        """(du, dw, 1/m_eff, r x n) of a unit impulse along n through the point r (about the
+        centre): n/M on the free translations, I^-1 (r x n) on the free rotations (2D: a
+        number), the point's speed along n that it makes, and the arm r x n, with which the
+        point's speed along n is u . n + w . (r x n)."""
+        arm = r[0] * n[1] - r[1] * n[0] if self.dim == 2 else np.cross(r, n)
         if self.dim == 2:
-            rn = r[0] * n[1] - r[1] * n[0]
-            dw = rn / self.inertia if self.free_r[0] else 0.0
-            return self.free_t * n / self.mass, dw, float(self.free_t @ (n * n)) / self.mass + rn * dw, r
-        dw = _solve_free(self.R @ self.inertia @ self.R.T, np.cross(r, n), self.free_r)
-        return self.free_t * n / self.mass, dw, float(self.free_t @ (n * n)) / self.mass + float(np.cross(r, n) @ dw), r
-
-    def _into(self, n, r, u, w):
-        """The point r's speed along n, (u + w x r) . n (negative: into the face)."""
-        if self.dim == 2:
-            return float(u @ n) + w * (r[0] * n[1] - r[1] * n[0])
-        return float(u @ n + np.cross(w, r) @ n)
+            dw = arm / self.inertia if self.free_r[0] else 0.0
+        else:
+            dw = _solve_free(self.R @ self.inertia @ self.R.T, arm, self.free_r)
+        return self.free_t * n / self.mass, dw, float(self.free_t @ (n * n)) / self.mass + float(np.dot(arm, dw)), arm
 
     def _leave_blocks(self):
         """Out of each fixed box: when wall points of the body are inside one, the body is

@@ -185,6 +185,8 @@ add("pressure", Choice(
 add("pressure", Choice(
     "Monaghan1992", "Monaghan (1992); Becker & Teschner (2007) eq. 6",
     "a_i -= sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) grad_i W_ij", build=_build_monaghan, implies=frozenset({"pr"})))
+
+
 def _one_artificial_viscosity(m):
     """Pi_ij (its ``av_alpha``) and the viscous slot's artificial viscosity (its ``alpha``, the
     WCSPH-BI spec's) are two forms of one term (Monaghan 1992): a case takes one of them."""
