@@ -19,10 +19,10 @@ SLOTS = {
                           ("None", "MolteniDiffusiveTerm", "FourtakasDiffusiveTerm")],
         "BCType": [(v, [("model.BCType", v)]) for v in ("BIConservative_numeric", "BIConsistent_numeric")],
         "EOS": [(v, [("model.EOS", v)]) for v in ("ColeEquationOfState", "LinearizedColeEquationOfState")],
-        "wall corrections": [("none", [("model.enableElasticBounce", False), ("model.enableShifting", False)]),
-                             ("elastic bounce", [("model.enableElasticBounce", True), ("model.enableShifting", False)]),
+        "wall corrections": [("none", [("model.enableElasticBounce", False), ("model.enableNearBoundaryShifting", False)]),
+                             ("elastic bounce", [("model.enableElasticBounce", True), ("model.enableNearBoundaryShifting", False)]),
                              ("bounce + NBVC-PST", [("model.enableElasticBounce", True),
-                                                    ("model.enableShifting", True)])],
+                                                    ("model.enableNearBoundaryShifting", True)])],
     },
     "dam_break_2d": {
         "xsph": [(v, [("model.xsph", v)]) for v in ("None", "momentum", "position")],

@@ -79,7 +79,7 @@ def test_a_box_floats_at_archimedes_draft(tmp_path):
     gauge = {"name": "level", "kind": "level", "position": [0.3, 0.0]}
     wcsph.run("hydrostatic_2d_bi", output=tmp_path, progress=False,
               overrides=[("dp", 0.04), ("time.end", 4.0), ("output.vtk", False), ("output.probe_interval", 0.05),
-                         ("obstacle", [box]), ("probes", [gauge]), ("model.enableShifting", False)])
+                         ("obstacle", [box]), ("probes", [gauge]), ("model.enableNearBoundaryShifting", False)])
     rows = [r for r in csv.DictReader(open(tmp_path / "probes.csv")) if float(r["time"]) >= 1.0]
     y = np.array([float(r["box_y"]) for r in rows])
     level = np.array([float(r["level"]) for r in rows])

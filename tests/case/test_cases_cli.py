@@ -78,6 +78,11 @@ def test_set_overrides_by_dotted_key():
         load("dam_break_2d", [("model.nope", 1)])
 
 
+def test_a_renamed_key_names_its_new_name():
+    with pytest.raises(CaseError, match="model.enableShifting: renamed: write model.enableNearBoundaryShifting"):
+        load("dam_break_2d_bi", [("model.enableShifting", False)])
+
+
 def _cli(*args, cwd=None):
     return subprocess.run([sys.executable, "-m", "wcsph.cli", *args], capture_output=True, text=True,
                           cwd=cwd, env=dict(os.environ, PYTHONUNBUFFERED="1"))

@@ -147,7 +147,7 @@ def _random_patch(walls):
     case = {"dim": 2, "dp": 0.02, "precision": "float64", "time": {"end": 1.0, "dt": 2e-4},
             "physics": {"gravity": [0.0, 0.0], "speed_of_sound": 20.0},
             "model": {"name": "bi", "BCType": "BIConservative_numeric", "DiffusiveTerm": "MolteniDiffusiveTerm",
-                      "enableElasticBounce": False, "enableShifting": False},
+                      "enableElasticBounce": False, "enableNearBoundaryShifting": False},
             "fluid": [{"min": [0.0, 0.0], "max": [0.4, 0.4]}]}
     if walls:
         case["tank"] = {"min": [0.0, 0.0], "max": [0.4, 0.4], "open_top": False}

@@ -26,7 +26,7 @@ def _smooth_run(scheme, n, **time):
             "time": dict({"end": T_SMOOTH, "dt": T_SMOOTH / n, "integrator": scheme}, **time),
             "physics": {"gravity": [0.0, 0.0], "speed_of_sound": 10.0},
             "model": {"name": "bi", "h": 1.9 * DP, "DiffusiveTerm": "None", "enableElasticBounce": False,
-                      "enableShifting": False},
+                      "enableNearBoundaryShifting": False},
             "domain": {"min": [-0.1, -0.1], "max": [0.2, 0.2]},
             "fluid": [{"min": [0.0, 0.0], "max": [0.1, 0.1]}], "output": {"progress": False}}
     sim = wcsph.Simulation(validate(case))
@@ -95,7 +95,7 @@ def _slosh(scheme, corrections, **time):
             "time": dict({"end": 100.0, "integrator": scheme, "force_cfl": 100.0}, **time),
             "physics": {"gravity": [0.0, -9.81], "speed_of_sound": C0},
             "model": {"name": "bi", "DiffusiveTerm": "None", "ViscousTerm": "None",
-                      "enableElasticBounce": corrections, "enableShifting": corrections},
+                      "enableElasticBounce": corrections, "enableNearBoundaryShifting": corrections},
             "tank": {"min": [0.0, 0.0], "max": [0.3, 0.2], "open_top": False},
             "fluid": [{"min": [0.0, 0.0], "max": [0.3, 0.1]}], "output": {"progress": False}}
     sim = wcsph.Simulation(validate(case))
@@ -199,7 +199,7 @@ def test_rk45_error_control(smooth_reference, tmp_path):
                 "time": {"end": T_SMOOTH, "integrator": "rk45", "cfl": 2.0, "rk45_tolerance": tol},
                 "physics": {"gravity": [0.0, 0.0], "speed_of_sound": 10.0},
                 "model": {"name": "bi", "h": 1.9 * DP, "DiffusiveTerm": "None", "enableElasticBounce": False,
-                          "enableShifting": False},
+                          "enableNearBoundaryShifting": False},
                 "domain": {"min": [-0.1, -0.1], "max": [0.2, 0.2]},
                 "fluid": [{"min": [0.0, 0.0], "max": [0.1, 0.1]}], "output": {"progress": False, "vtk": False}}
         sim = wcsph.Simulation(validate(case))

@@ -215,11 +215,18 @@ def _leaf(src, key, kind, value, dim):
     raise AssertionError(kind)
 
 
+#: keys of earlier versions, and what they are called now
+RENAMED = {"model.enableShifting": "model.enableNearBoundaryShifting (NBVC-PST; the bulk's shifting is the "
+                                   "`shifting` slot)"}
+
+
 def _validate(src, prefix, schema, data, dim):
     if not isinstance(data, dict):
         _fail(src, prefix.rstrip("."), f"expected a table, got {data!r}")
     unknown = sorted(set(data) - set(schema))
     if unknown:
+        if prefix + unknown[0] in RENAMED:
+            _fail(src, prefix + unknown[0], f"renamed: write {RENAMED[prefix + unknown[0]]}")
         _fail(src, prefix + unknown[0], "unknown key; known keys here: " + ", ".join(sorted(schema)))
     out = {}
     for name, (kind, default, check) in schema.items():
@@ -484,7 +491,7 @@ def apply_override(data, key, value, src="--set"):
     for k, part in enumerate(parts):
         entry = schema.get(part) if isinstance(schema, dict) else None
         if entry is None:
-            raise CaseError(f"{src}: {key}: unknown key")
+            raise CaseError(f"{src}: {key}: " + (f"renamed: write {RENAMED[key]}" if key in RENAMED else "unknown key"))
         if k == len(parts) - 1:
             node[part] = value
         else:

@@ -25,8 +25,8 @@ ELEMENT_PARAMS = (
     Param("r_boxFactor", 1.5, "r_box = r_boxFactor dp, the reach of an element's corrections", check=POS, spec=True),
     Param("minimalDistanceFactor", 0.5, "h_fac: the bounce keeps particles h_fac dp off the wall", check=NONNEG,
           spec=True),
-    Param("enableShifting", True, "NBVC-PST: particles closer than their radius (m/rho)^(1/d)/2 are moved "
-          "back", kind="bool"),
+    Param("enableNearBoundaryShifting", True, "NBVC-PST: particles closer than their radius (m/rho)^(1/d)/2 "
+          "are moved back", kind="bool"),
 )
 
 
@@ -68,9 +68,9 @@ def _element_passes(consistent):
             init, store = make_boundary_store(ctx)
             out.append(WallPass(init, make_boundary_interpolation(ctx), store, writes=(("p", "scalar"), ("rho", "scalar")),
                                 reads=("a",)))
-        if m["enableElasticBounce"] or m["enableShifting"]:
+        if m["enableElasticBounce"] or m["enableNearBoundaryShifting"]:
             term = make_wall_corrections(ctx, m["enableElasticBounce"], m["elasticBounce"] == "epsilon",
-                                         m["enableShifting"])
+                                         m["enableNearBoundaryShifting"])
             out.append(WallCorrection(make_wall_init(ctx), term, make_wall_store(ctx)))
         return out
 
