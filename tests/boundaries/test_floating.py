@@ -345,25 +345,87 @@ def _box_body(lo, hi, mass, dim=2):
     return b, pts
 
 
-def test_two_floating_boxes_meet_inelastically_and_keep_their_momentum():
-    """Two boxes (1 and 3 kg) thrown at each other (2 and -1 m/s, no gravity): no wall point of
-    one ever enters the other, their total momentum stays 2 - 3 = -1 kg m/s, and after they
-    meet they move together at -1/4 m/s (a perfectly inelastic contact)."""
+@pytest.mark.parametrize("offset", [0.0, 0.05])
+def test_two_floating_boxes_meet_inelastically_and_keep_their_momentum(offset):
+    """Two boxes (1 and 3 kg, 0.2 m wide) thrown at each other (2 and -1 m/s, no gravity): no
+    wall point of one ever enters the other, their momentum stays -1 kg m/s exactly and
+    their angular momentum about the origin within 1e-5 of its start (the pushes that part
+    them move the centres), and their kinetic energy never grows. Face to face (``offset``
+    0) they then move together at -1/4 m/s without turning (a perfectly inelastic contact);
+    met off-centre (the second 0.05 m higher) the contact's impulses turn both."""
     from wcsph.boundaries.floating import collide
 
     a, pa = _box_body([0.2, 0.4], [0.4, 0.6], 1.0)
-    b, pb = _box_body([0.8, 0.45], [1.0, 0.65], 3.0)
+    b, pb = _box_body([0.8, 0.4 + offset], [1.0, 0.6 + offset], 3.0)
     a.meet(pa, [])
     b.meet(pb, [])
     a.u, b.u = np.array([2.0, 0.0]), np.array([-1.0, 0.0])
+
+    def spin(x):  # angular momentum about the origin
+        return x.mass * (x.c[0] * x.u[1] - x.c[1] * x.u[0]) + x.inertia * x.omega
+
+    def energy(x):
+        return 0.5 * x.mass * x.u @ x.u + 0.5 * x.inertia * x.omega ** 2
+
+    L0, E = spin(a) + spin(b), energy(a) + energy(b)
     for _ in range(300):
         for body in (a, b):
             body.step(0.001, [0.0, 0.0], 0.0, [0.0, 0.0])
         collide(a, b)
-        xa = a.c[:, None] + a.points
-        assert not np.any(np.all((xa > (b.c + b.box[0])[:, None]) & (xa < (b.c + b.box[1])[:, None]), axis=0))
+        for p, q in ((a, b), (b, a)):
+            x = p.c[:, None] + _rot(p.theta) @ p.points
+            y = _rot(q.theta).T @ (x - q.c[:, None])
+            assert not np.any(np.all((y > q.box[0][:, None] + 1e-12) & (y < q.box[1][:, None] - 1e-12), axis=0))
         assert a.mass * a.u + b.mass * b.u == pytest.approx([-1.0, 0.0], abs=1e-12)
-    assert a.u == pytest.approx([-0.25, 0.0], abs=1e-12) and b.u == pytest.approx([-0.25, 0.0], abs=1e-12)
+        assert spin(a) + spin(b) == pytest.approx(L0, abs=1e-5)
+        assert energy(a) + energy(b) <= E + 1e-12
+        E = energy(a) + energy(b)
+    if offset == 0.0:
+        assert a.u == pytest.approx([-0.25, 0.0], abs=1e-12) and b.u == pytest.approx([-0.25, 0.0], abs=1e-12)
+        assert abs(a.omega) < 1e-12 and abs(b.omega) < 1e-12
+    else:
+        assert abs(a.omega) > 1.0 and abs(b.omega) > 1.0, (a.omega, b.omega)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_tilted_box_dropped_on_another_falls_flat_on_it(dim):
+    """The contact between two floating boxes pushes through its contact points, so it turns
+    them: a 0.2 m box (1 kg) tilted by 0.4 rad and dropped onto a wide one (10 kg) lying on the
+    floor lands on a corner, falls onto a face and rests on the lower box's top (turned by a
+    multiple of 90 degrees within 0.01 rad, its centre 0.1 m above that top within 1e-6 m,
+    slower than 1 mm/s: frictionless, the landing leaves it a slow slide, 0.3 mm/s in 3D), the
+    lower box undisturbed on the floor. Without the contact's torque it would stay on its
+    corner at 0.4 rad."""
+    from wcsph.boundaries.floating import collide, tank_planes
+
+    planes = tank_planes({"min": [0.0] * dim, "max": [2.0] * dim, "open_top": True}, dim)
+    low, pl = _box_body([0.5] * (dim - 1) + [0.0], [1.5] * (dim - 1) + [0.2], 10.0, dim)
+    up, pu = _box_body([0.9] * (dim - 1) + [0.5], [1.1] * (dim - 1) + [0.7], 1.0, dim)
+    low.meet(pl, planes)
+    up.meet(pu, planes)
+    a = 0.4
+    if dim == 2:
+        up.theta = a
+    else:  # about x
+        up.R = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
+    g = [0.0] * (dim - 1) + [-9.81]
+    zero_t = 0.0 if dim == 2 else np.zeros(3)
+    for _ in range(800):
+        for b in (low, up):
+            b.step(0.001, [0.0] * dim, zero_t, g)
+        for _ in range(16):  # as the floating stage sweeps the pairs
+            if not collide(low, up):
+                break
+            low.settle()
+            up.settle()
+    turned = up.theta if dim == 2 else math.atan2(up.R[2, 1], up.R[1, 1])
+    assert abs((turned + math.pi / 4) % (math.pi / 2) - math.pi / 4) < 0.01, turned
+    assert up.c[-1] == pytest.approx(0.3, abs=1e-6) and low.c[-1] == pytest.approx(0.1, abs=1e-9)
+    assert np.abs(up.u).max() < 1e-3 and np.abs(up.omega).max() < 1e-3
+
+
+def _rot(theta):
+    return np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
 
 
 @pytest.mark.parametrize("dim", [2, 3])

@@ -55,8 +55,9 @@ same holds a body out of the case's fixed obstacle boxes: wall points of the bod
 move the body out by the least push along a free axis, and impulses through them take its
 velocity into the box out, turning it as at the tank's faces.
 Two floating boxes (``collide``) are parted the same way in the frame of the one entered, the
-push shared in inverse proportion to their masses, their approach removed with momentum kept
-(the contact's torque is left out). A body that is not a box, a moving obstacle, a polygon
+push shared in inverse proportion to their masses, and impulses through the contact points,
+equal and opposite on the two, remove their approach there and turn both (momentum and
+angular momentum kept). A body that is not a box, a moving obstacle, a polygon
 or a wall mesh meet a floating body through the fluid between them alone.
 """
 import math
@@ -311,39 +312,26 @@ class FloatingBody:
 
     def _impulses(self, n, r):
         """Impulses along n through the contact points r (dim, K, about the centre) that take
-        the velocity into the surface out at each of them: sequential impulses, each point's
-        total kept non-negative (projected Gauss-Seidel), swept until they settle; then the
-        accelerations likewise."""
-        resp = [self._response(n, r[:, k]) for k in range(r.shape[1])]
-        for a, b in (("u", "omega"), ("du", "alpha")):
-            u, w = getattr(self, a), getattr(self, b)
-            J = np.zeros(len(resp))  # each point's impulse so far, never negative
-            for _ in range(CONTACT_SWEEPS):
-                moved = 0.0
-                for k, (ju, jw, inv, arm) in enumerate(resp):
-                    into = float(u @ n + np.dot(w, arm))  # the point's speed along n
-                    new = max(J[k] - into / inv, 0.0)
-                    dj = new - J[k]
-                    if dj != 0.0:
-                        u, w = u + dj * ju, w + dj * jw
-                        J[k] = new
-                        moved = max(moved, abs(dj) / inv)
-                if moved <= CONTACT_TOL:
-                    break
-            setattr(self, a, u)
-            setattr(self, b, w)
+        the velocity into the surface out at each of them, then the accelerations likewise
+        (``contact_impulses``)."""
+        contact_impulses([(self, n, r)])
 
-    def _response(self, n, r):
-        """(du, dw, 1/m_eff, r x n) of a unit impulse along n through the point r (about the
-        centre): n/M on the free translations, I^-1 (r x n) on the free rotations (2D: a
-        number), the point's speed along n that it makes, and the arm r x n, with which the
-        point's speed along n is u . n + w . (r x n)."""
-        arm = r[0] * n[1] - r[1] * n[0] if self.dim == 2 else np.cross(r, n)
+    def _responses(self, n, r):
+        """(du, dw, arms) of unit impulses along n through the points r (dim, K, about the
+        centre): du = n/M on the free translations (the same for every point), dw (K, a number
+        in 2D, a vector in 3D) = I^-1 (r x n) on the free rotations, and the arms r x n, with
+        which a point's speed along n is u . n + w . (r x n)."""
         if self.dim == 2:
-            dw = arm / self.inertia if self.free_r[0] else 0.0
+            arms = r[0] * n[1] - r[1] * n[0]
+            dw = arms / self.inertia if self.free_r[0] else np.zeros_like(arms)
         else:
-            dw = _solve_free(self.R @ self.inertia @ self.R.T, arm, self.free_r)
-        return self.free_t * n / self.mass, dw, float(self.free_t @ (n * n)) / self.mass + float(np.dot(arm, dw)), arm
+            arms = np.cross(r.T, n)
+            dw = np.zeros_like(arms)
+            f = np.flatnonzero(self.free_r)
+            if f.size:
+                Iw = self.R @ self.inertia @ self.R.T
+                dw[:, f] = np.linalg.solve(Iw[np.ix_(f, f)], arms[:, f].T).T
+        return self.free_t * n / self.mass, dw, arms
 
     def _leave_blocks(self):
         """Out of each fixed box: when wall points of the body are inside one, the body is
@@ -438,6 +426,9 @@ def _rot2(theta):
 #: m/s^2 for the accelerations] below which a point counts as stopped
 CONTACT_SWEEPS = 64
 CONTACT_TOL = 1e-14
+#: the depth, relative to a box's size, below which a body's point on the box's face counts
+#: as touching it, not inside (the push that put it there leaves it a rounding error deep)
+TOUCH = 1e-12
 
 
 def _extremes(r, n):
@@ -458,6 +449,51 @@ def _extremes(r, n):
         s = d @ r
         keep.update((int(np.argmin(s)), int(np.argmax(s))))
     return r[:, sorted(keep)]
+
+
+def contact_impulses(sides):
+    """Impulses at K contact points that take the speed of approach out at each: ``sides``
+    lists (body, n, r) for each body at the contact, n the normal out of the other body or
+    the surface, r (dim, K) the points about the body's centre; point k's impulse J_k acts
+    along n on each body (equal and opposite on two, their normals opposite). With A the
+    speed at which point k parts (along n, summed over the sides) per unit impulse at point l,
+    and s_k the speed now, the impulses solve s + A J >= 0, J >= 0, J_k (s + A J)_k = 0 by
+    projected Gauss-Seidel (sequential impulses, each point's total kept non-negative, swept
+    until no point's speed changes by more than ``CONTACT_TOL``); the velocities, then the
+    accelerations likewise. A landing on a corner turns the body, one on a face stops it
+    (rigid, inelastic, frictionless; with two bodies momentum and angular momentum kept)."""
+    resp = [body._responses(n, r) for body, n, r in sides]
+    A = sum(float(n @ du) + (np.outer(arms, dw) if arms.ndim == 1 else arms @ dw.T)
+            for (_, n, _), (du, dw, arms) in zip(sides, resp))
+    A = A.tolist()
+    for a, b in (("u", "omega"), ("du", "alpha")):
+        speed = sum(float(getattr(body, a) @ n) + (arms * getattr(body, b) if arms.ndim == 1 else arms @ getattr(body, b))
+                    for (body, n, _), (du, dw, arms) in zip(sides, resp))
+        J = np.array(_projected_gauss_seidel(A, speed.tolist()))
+        for (body, _, _), (du, dw, arms) in zip(sides, resp):
+            setattr(body, a, getattr(body, a) + J.sum() * du)
+            setattr(body, b, getattr(body, b) + J @ dw)
+
+
+def _projected_gauss_seidel(A, s):
+    """J >= 0 with s + A J >= 0 and J_k (s + A J)_k = 0 (A: lists of floats, K x K)."""
+    K = len(s)
+    s, J = list(s), [0.0] * K
+    for _ in range(CONTACT_SWEEPS):
+        moved = 0.0
+        for k in range(K):
+            if A[k][k] <= 0.0:
+                continue  # an impulse there moves nothing
+            new = max(J[k] - s[k] / A[k][k], 0.0)
+            dj = new - J[k]
+            if dj != 0.0:
+                J[k] = new
+                for m in range(K):
+                    s[m] += dj * A[m][k]
+                moved = max(moved, abs(dj) * A[k][k])
+        if moved <= CONTACT_TOL:
+            break
+    return J
 
 
 def _parallel_axes(mass, r):
@@ -548,34 +584,33 @@ def _least_push(y, lo, hi, free):
 def collide(a, b):
     """Two floating boxes kept apart: the wall points of each inside the other's box (in that
     box's frame) part the two by the least push along one of its axes, shared in inverse
-    proportion to their masses (a held axis takes none), and their velocity and acceleration
-    of approach along it go with momentum kept (a rigid, inelastic contact between the
-    centres: the contact's torque is left out). Returns whether they touched."""
+    proportion to their masses (a held axis takes none); then impulses along that axis
+    through the contact points (the extremes, along the face, of the points that were inside)
+    take the velocity and acceleration of approach out at each of them, equal and opposite
+    on the two bodies, turning both (rigid, inelastic, frictionless: momentum and angular
+    momentum kept). Returns whether they touched."""
     touched = False
     for p, q in ((a, b), (b, a)):
         if q.box is None or not p.points.shape[1]:
             continue
         Rp = p.R if p.dim == 3 else _rot2(p.theta)
         Rq = q.R if q.dim == 3 else _rot2(q.theta)
-        y = Rq.T @ (p.c[:, None] + Rp @ p.points - q.c[:, None])  # p's points in q's frame
+        x = p.c[:, None] + Rp @ p.points
+        y = Rq.T @ (x - q.c[:, None])  # p's points in q's frame
         lo, hi = q.box
-        inside = np.all((y > lo[:, None]) & (y < hi[:, None]), axis=0)
+        slack = TOUCH * float(np.max(hi - lo))  # a point left on q's face by the last push is not inside
+        inside = np.all((y > lo[:, None] + slack) & (y < hi[:, None] - slack), axis=0)
         if not inside.any():
             continue
-        best = _least_push(y[:, inside], lo, hi, [True] * p.dim)
-        need, k, sign = best
+        need, k, sign = _least_push(y[:, inside], lo, hi, [True] * p.dim)
         n = Rq[:, k] * sign  # out of q, for p
-        inv_p, inv_q = (float(n @ (x.free_t * n)) / x.mass for x in (p, q))
+        inv_p, inv_q = (float(n @ (body.free_t * n)) / body.mass for body in (p, q))
         if inv_p + inv_q <= 0.0:
             continue  # both held along it
+        points = p.c[:, None] + _extremes(x[:, inside] - p.c[:, None], n)  # the contact points
         p.c = p.c + need * inv_p / (inv_p + inv_q) * p.free_t * n
         q.c = q.c - need * inv_q / (inv_p + inv_q) * q.free_t * n
-        for name in ("u", "du"):
-            rel = float((getattr(p, name) - getattr(q, name)) @ n)
-            if rel < 0.0:
-                j = -rel / (inv_p + inv_q)
-                setattr(p, name, getattr(p, name) + j / p.mass * p.free_t * n)
-                setattr(q, name, getattr(q, name) - j / q.mass * q.free_t * n)
+        contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])])
         touched = True
     return touched
 
