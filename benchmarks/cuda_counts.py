@@ -52,7 +52,7 @@ def main(argv=None):
         setattr(owner, name, counted)
 
     wrap(kernel.FakeCUDAKernel, "__call__", lambda args: ("device function " if args[0]._device else "launch ")
-         + getattr(args[0].fn, "__name__", "?"))
+         + getattr(args[0].fn, "__qualname__", "?").replace(".<locals>.", ".").replace(".<locals>", ""))
     wrap(devicearray.FakeCUDAArray, "copy_to_host", "device->host copy")
     import numba.cuda as cuda
 

@@ -334,7 +334,7 @@ def _near_wall(ctx, P, per_h):
                np.zeros(nb), np.zeros(nb), normal, np.full(nb, size), np.zeros((4, nb)))
     i = int(np.argmin(np.abs(x[0]) + np.abs(x[1] - 0.8 * H)))
     Ps = P._replace(shift_w_dp_inv=1.0)
-    acc, shepard = (0.0,) * 10, 0.0
+    acc, shepard = (0.0,) * 11, 0.0
     for j in range(n):
         r = np.linalg.norm(x[:, i] - x[:, j])
         if j != i and r < 2 * H:
@@ -364,3 +364,29 @@ def test_shifting_sums_close_with_the_boundary_integral(P, ctx):
     assert np.abs(coarse[0]).max() < 0.05 * coarse[1][1]
     assert np.abs(fine[0]).max() < 0.02 * fine[1][1]
     assert np.abs(fine[0]).max() < 0.6 * np.abs(coarse[0]).max()
+
+
+@pytest.mark.parametrize("boundary", ["elements", "particles"])
+def test_shifting_near_walls_none_leaves_a_particle_by_a_wall_where_it_is(P, ctx, boundary):
+    """``shifting_near_walls = "none"`` (TNL-SPH's PST): one wall neighbour within the support,
+    an element or a boundary particle, and the particle's shift is zero, its density kept;
+    with "complete" (the default) the same sums shift it."""
+    from wcsph.physics.shifting import make_shift_boundary, make_shift_store, make_shift_term, make_shift_wall_particles
+
+    rng = np.random.default_rng(7)
+    fluid, wall = _set(rng, 3), _set(rng, 1)
+    wall_term = make_shift_boundary(ctx) if boundary == "elements" else make_shift_wall_particles(ctx)
+    Ps = P._replace(shift_w_dp_inv=1.0, shift_d=1e-4, vmax=1.0, shift_surface=0.0, shift_max=1.0)
+    acc = (0.0,) * 11
+    for j in (1, 2):
+        acc = _call(make_shift_term(ctx, True), fluid, fluid, 0, j, Ps, acc)
+    acc = _call(wall_term, fluid, wall, 0, 0, Ps, acc)
+    assert acc[10] == 1.0
+    out = {}
+    for near_walls in (True, False):
+        _, store = make_shift_store(ctx, False, True, near_walls)
+        Iw = namedtuple("I", "v rho corr rho_corr")(fluid.v, fluid.rho, np.zeros((3, 3)), np.zeros(3))
+        store(0, Iw, Ps, acc)
+        out[near_walls] = (Iw.corr[:, 0].copy(), Iw.rho_corr[0])
+    assert np.abs(out[True][0]).max() > 0.0 and out[True][1] != fluid.rho[0]
+    assert np.all(out[False][0] == 0.0) and out[False][1] == fluid.rho[0]
