@@ -16,6 +16,7 @@ import numpy as np
 
 from wcsph.run import loads
 from wcsph.validation import _sim
+from wcsph.validation import references as ref
 
 
 def main():
@@ -59,6 +60,15 @@ def main():
         print(f"| {f} | {m.sum()} | {cd[f][s].mean():+.3f} |")
     print(f"| front + rear | | {(cd['front'] + cd['rear'])[s].mean():+.3f} |")
     print(f"| top + bottom | | {(cd['top'] + cd['bottom'])[s].mean():+.3f} |")
+    d = np.loadtxt(ref.DATA / "spheric6_moving_square_drag_re100.dat", skiprows=2)
+    total = sum(cd.values())
+    r = np.interp(t[s], d[:, 0], d[:, 1] + d[:, 2])
+    rs = (d[:, 0] >= 2.0) & (d[:, 0] <= 6.0)
+    print(f"total C_D {total[s].mean():.3f} against {(d[rs, 1] + d[rs, 2]).mean():.3f} "
+          f"({total[s].mean() / (d[rs, 1] + d[rs, 2]).mean() - 1:+.1%}), RMS of the difference "
+          f"{np.sqrt(np.mean((total[s] - r) ** 2)):.3f}; the box's mean pressure above p0 at the end: "
+          f"{0.25 * rho * U * U * (cd['front'][-1] - cd['rear'][-1]) - p0:.2f} Pa (the mean of the front and rear "
+          "faces' pressure)")
     # the wall pressure along the front and rear faces: (load . n) / S - p0, in units of rho U^2 / 2
     prof = {}
     for f in ("front", "rear"):
