@@ -437,6 +437,27 @@ def test_moving_square_is_pushed_back_by_the_fluid(tmp_path):
     assert np.all(fx < 0) and np.all(np.abs(fy) < 0.05 * np.abs(fx))
 
 
+@pytest.mark.validation  # 20 across to 6 s: about three minutes here
+def test_moving_square_keeps_the_box_mean_density_and_its_drag():
+    """SPHERIC 6 (``moving_square_2d`` as shipped): the closed box's mean density stays within
+    0.2 % of rho0 to t = 6 s (measured 0.09 %; with the shifting by the walls and the bounce at
+    h_fac = 0.5 dp working against each other it rose 1.7 % at this resolution and the drag
+    fell with resolution), and the mean C_D over 2-6 s is within 10 % of the reference
+    (measured -5 to -7 %, runs sampled differently; the goal of 5 % is the open check of
+    ``wcsph validate``)."""
+    sim = wcsph.Simulation(load("moving_square_2d", [("time.end", 6.0), ("output.vtk", False)]))
+    cd = []
+    while sim.t < 6.0 - 1e-9:
+        _advance(sim, round(sim.t + 0.05, 6))
+        if sim.t >= 2.0 - 1e-9:
+            cd.append(-2.0 * sim.body_loads()["square_fx"])
+    rho, = sim.host(sim.fluid, "rho")
+    assert abs(rho.mean() / 1.0 - 1.0) < 2e-3, rho.mean()
+    rt, rcd = ref.moving_square_drag()
+    mean_ref = rcd[(rt >= 2.0) & (rt <= 6.0)].mean()
+    assert abs(np.mean(cd) / mean_ref - 1.0) < 0.10, np.mean(cd)
+
+
 @pytest.mark.validation
 def test_open_channel_in_3d_with_a_periodic_span():
     """An open channel in 3D (as TNL-SPH's openChannel3D: inflow parabola, outflow p = 0),
