@@ -397,7 +397,7 @@ def cylinder_entry(quick):
                   [("SPH", T, d, "sim"), ("Fekken 2004", rT, rd, "ref")], ("T = t sqrt(g/R)", "displacement [m]"))
 
 
-def wave_flume(quick):
+def wave_flume(quick, overrides=()):
     """``wave_flume_2d``: a piston makes regular waves (linear theory: H = 0.06 m, T = 1.2 s,
     h = 0.4 m); at gauges 2, 3 and 4 wavelengths from it, over the last 8 s, the mean
     zero-crossing height within 5 % of H and the period within 1 % of T; the reflection
@@ -409,7 +409,7 @@ def wave_flume(quick):
     from ..boundaries.motion import wave_number
     from .waves import goda_suzuki, zero_crossing
 
-    sim = _sim("wave_flume_2d", [("output.vtk", False), ("output.progress", False)])
+    sim = _sim("wave_flume_2d", [("output.vtk", False), ("output.progress", False)] + list(overrides))
     m = sim.case["obstacle"][0]["motion"]
     H, T, h = m["height"], m["period"], m["depth"]
     with tempfile.TemporaryDirectory() as tmp:
