@@ -64,16 +64,22 @@ def test_a_callback_falls_due_each_interval_and_never_at_zero():
 
 def test_the_stages_of_a_case_follow_from_it():
     """A case without open boundaries has no inflow stages; one with them has both, around the
-    integrator; the walls move after the time advanced (after the floating bodies' step when
-    there are floating bodies) and the check comes last."""
+    integrator; walls on a prescribed path are placed at the step's end before the after-step
+    passes (they correct positions against the wall where it then is), a floating body's walls
+    after its step, after the time advanced; the check comes last."""
     from types import SimpleNamespace
 
     from wcsph.run.simulation import stages
 
-    fixed, floating = SimpleNamespace(floating={}), SimpleNamespace(floating={1: object()})
+    fixed = SimpleNamespace(floating={}, prescribed=False)
+    floating = SimpleNamespace(floating={1: object()}, prescribed=False)
+    moving = SimpleNamespace(floating={}, prescribed=True)
     names = [type(s).__name__ for s in stages(object(), fixed, None)]
-    assert "InflowBefore" not in names and names[-3:] == ["Advance", "MoveWalls", "Check"]
+    assert "InflowBefore" not in names and "WallsAtStepEnd" not in names and names[-2:] == ["Advance", "Check"]
     names = [type(s).__name__ for s in stages(object(), floating, None)]
     assert names[-4:] == ["Advance", "MoveBodies", "MoveWalls", "Check"]
+    names = [type(s).__name__ for s in stages(object(), moving, None)]
+    assert names[names.index("Integrate") + 1:names.index("Integrate") + 3] == ["WallsAtStepEnd", "AfterStep"]
+    assert "MoveWalls" not in names
     opened = [type(s).__name__ for s in stages(object(), fixed, object())]
     assert opened.index("InflowBefore") < opened.index("Integrate") < opened.index("InflowAfter")

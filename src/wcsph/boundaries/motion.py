@@ -247,6 +247,9 @@ class Bodies:
             else:
                 self.centres.append(pts.mean(axis=1) if pts.shape[1] else np.zeros(dim))
         self.moving = any(m is not None for m in self.motions)
+        #: a wall moves along a prescribed path: its place depends on the time alone, so an
+        #: evaluation inside a step can see it where it is at that evaluation's time
+        self.prescribed = any(m is not None and b not in self.floating for b, m in enumerate(self.motions))
 
     def place(self, t, x0, n0, body):
         """(x, n, v, a) of every wall point at time t."""

@@ -4,8 +4,9 @@ An integrator sees a particle set through ``StateView``: the state (x, v and, fo
 a continuity equation, rho), the derivatives the model last wrote (dvdt, drhodt), p and m
 (for the energy residual), and its own arrays (x_n v_n rho_n: the state at the start of the step; dv_t drho_t: the
 implicit midpoint's iterated derivatives; k: Runge-Kutta stages; w: per-stage
-coefficients). A step gets the run state (``run.state.State``): it calls ``state.evaluate(P)``
-for the derivatives at the current state, ``state.view(w)`` for the particles as the maps see
+coefficients). A step gets the run state (``run.state.State``): it calls ``state.evaluate(P, at)``
+for the derivatives at the current state, which is that of time t + at dt (moving walls are
+placed at that time), ``state.view(w)`` for the particles as the maps see
 them, and ``state.reduce(map, view, P)`` for a reduction map (over every process's particles
 in a decomposed run).
 A model without a continuity equation (density by summation) has ``continuity = False``; the
@@ -395,7 +396,7 @@ class SymplecticVerlet(Integrator):
         predict, correct = self.maps
         state.evaluate(P)
         predict(state.view(), P)
-        state.evaluate(P)
+        state.evaluate(P, at=0.5)
         correct(state.view(), P)
         return float(P.dt)
 
@@ -448,7 +449,7 @@ class RungeKutta(Integrator):
         save, stage, _, _ = self.maps
         save(state.view(), P)
         for s in range(len(self.b)):
-            state.evaluate(P)
+            state.evaluate(P, at=sum(self.A[s]))
             stage(state.view(self.stage_w[s]), P)
 
     def step(self, state, P):
@@ -595,7 +596,7 @@ class ImplicitMidpoint(Integrator):
         it, res = 0, float("inf")
         for it in range(1, self.max_iter + 1):
             midstate(state.view(), P)
-            state.evaluate(P)
+            state.evaluate(P, at=0.5)
             r, size = state.reduce(residual, state.view(), P)[:2]
             res = r / size if size > 0 else (0.0 if r == 0 else float("inf"))
             if res < 0.5 * best:

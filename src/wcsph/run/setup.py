@@ -17,7 +17,7 @@ from ..boundaries.motion import Bodies
 from ..boundaries.open_boundary import OpenBoundaries
 from ..backends.particles import ParticleSet
 from .state import State
-from .walls import place_walls
+from .walls import clock, place_walls
 
 
 class Setup:
@@ -96,6 +96,7 @@ def build(case, backend, comm):
     state = State(case, be, grid, model, P, fluid, walls, domain=(lo, hi), h=h, c0=c0, mass=mass, par=par, halo=halo)
     state.vmax = float(np.max(np.linalg.norm(v, axis=0))) if v.shape[1] else 0.0
     place_walls(state, bodies, 0.0)
+    state.walls_at = clock(state, bodies)
     be.sort(walls, grid)
     be.wrap(fluid, grid)
     if par is None:

@@ -5,14 +5,16 @@ A step is the list ``stages``, each a callable of the run state (``run.state.Sta
 1. ``Sort``: the particles by cell (in a decomposed run: migrated, ghosts exchanged);
 2. the step's parameters (``Integrate.parameters``);
 3. ``InflowBefore``: the open boundaries' buffers kept (cases with open boundaries);
-4. ``Integrate``: the integrator's evaluations and maps;
+4. ``Integrate``: the integrator's evaluations and maps (each places the walls on prescribed
+   paths at its time: ``run.walls``);
+4b. ``WallsAtStepEnd``: those walls at the step's end time (cases with them);
 5. ``AfterStep``: the model's after-step passes;
 6. ``InflowAfter``: buffers prescribed, particles enter and leave;
 6b. ``Damping``: the velocity relaxed in damping zones (cases with ``[[damping]]``);
 7. ``Advance``: periodic wrap, time and step count;
 8. ``MoveBodies``: the floating bodies' step under the fluid's loads and gravity (cases with
    floating bodies);
-9. ``MoveWalls``: moving walls to the new time;
+9. ``MoveWalls``: the floating bodies' walls to their new place (cases with floating bodies);
 10. ``Check``: speeds for the next step, and the stop on a non-physical state.
 
 Between steps the time loop (``run.loop``) writes frames, probes and checkpoints and
@@ -35,7 +37,7 @@ from .integrate import Integrate
 from .loads import body_loads
 from .sort import Sort
 from .timestep import TimeStep
-from .walls import MoveWalls
+from .walls import MoveWalls, WallsAtStepEnd
 
 
 def stages(integrator, bodies, open_boundaries, damping=None):
@@ -44,10 +46,11 @@ def stages(integrator, bodies, open_boundaries, damping=None):
     integrate = Integrate(integrator)
     inflow = [InflowBefore(open_boundaries)] if open_boundaries is not None else []
     outflow = [InflowAfter(open_boundaries)] if open_boundaries is not None else []
-    floating = [MoveBodies(bodies)] if bodies.floating else []
+    floating = [MoveBodies(bodies), MoveWalls(bodies)] if bodies.floating else []
     damped = [damping] if damping is not None else []
-    return [Sort(), integrate.parameters, *inflow, integrate, AfterStep(), *outflow, *damped, Advance(), *floating,
-            MoveWalls(bodies), Check()]
+    walls = [WallsAtStepEnd()] if bodies.prescribed else []
+    return [Sort(), integrate.parameters, *inflow, integrate, *walls, AfterStep(), *outflow, *damped, Advance(),
+            *floating, Check()]
 
 
 class Simulation:

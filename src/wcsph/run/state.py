@@ -31,6 +31,8 @@ class State:
         self.t = 0.0
         self.steps = 0
         self.dt = 0.0  # the step being taken (the stages of one step read it)
+        self.walls_at = None  # t -> walls on prescribed paths placed at t (``run.walls.clock``)
+        self.walls_t = 0.0  # the time the moving walls were last placed at
         self.evaluations = 0  # derivative evaluations (integrator stages, midpoint iterations)
         self.dropped = 0  # fluid particles that left the domain
         self.vmax = 0.0  # |v| and |a| largest after the last step: the next step's size
@@ -64,10 +66,13 @@ class State:
         """The model parameters for a step of size ``dt`` from the current time."""
         return self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t), self.vmax)
 
-    def evaluate(self, P):
-        """The model's derivatives at the current state (called by the integrator); a
-        decomposed run first refreshes its ghosts' state from their owners."""
+    def evaluate(self, P, at=0.0):
+        """The model's derivatives at the current state (called by the integrator), which is
+        that of the time t + ``at`` dt (dt = ``P.dt``): walls on prescribed paths are placed
+        there first; a decomposed run first refreshes its ghosts' state from their owners."""
         self.evaluations += 1
+        if self.walls_at is not None:
+            self.walls_at(self.t + at * float(P.dt) if at else self.t)
         if self.par is not None:
             self.par.update(self.fluid, self.model.exchanged["state"])
         self.model.derivatives(self.fluid, self.walls, P, self.G, self.halo)
