@@ -1,6 +1,6 @@
 """The paper model of docs/scaling.md: communication volume against work per step for the
 shipped 3D dam break (column 0.3 x 0.4 x 0.6 m in a 1.2 x 0.4 x 0.8 m tank) at 5 M, 50 M and
-500 M particles, on slabs (what ``wcsph.run.parallel`` does) and on cubic blocks (what 1000 ranks
+500 M particles, on slabs (what ``wcsph.solver.parallel`` does) and on cubic blocks (what 1000 ranks
 would need). Counting only, no run: every figure follows from the geometry and the settings
 printed at the top.
 

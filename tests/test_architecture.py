@@ -25,7 +25,7 @@ LAYERS = [
     {"boundaries"},  # motion, floating bodies, open boundaries
     {"case"},  # the case file and its geometry
     {"models"},
-    {"run"},  # state, stages, loop, MPI, progress
+    {"solver"},  # state, stages, loop, MPI, progress
     {"validation", "cli", "__main__", "wcsph"},
 ]
 RANK = {name: k for k, layer in enumerate(LAYERS) for name in layer}
@@ -158,3 +158,21 @@ def test_the_tests_mirror_the_packages():
     packages = {p.name for p in SRC.iterdir() if (p / "__init__.py").exists()}
     assert dirs and dirs <= packages, sorted(dirs - packages)
     assert not [p.name for p in tests.glob("test_*.py") if p.name != "test_architecture.py"]
+
+
+def test_no_name_of_the_package_hides_a_subpackage():
+    """Every subpackage imports by its dotted name (``import wcsph.solver.loads``), and no name
+    that ``wcsph`` exports is also a subpackage's (the function ``wcsph.run`` once hid the
+    package ``wcsph.run``)."""
+    import importlib
+
+    import wcsph
+
+    subpackages = sorted(p.name for p in SRC.iterdir() if (p / "__init__.py").exists())
+    for name in subpackages:
+        module = importlib.import_module(f"wcsph.{name}")
+        assert getattr(wcsph, name) is module, name
+    assert not set(wcsph.__all__) & set(subpackages)
+    import wcsph.solver.loads as loads
+
+    assert callable(loads.body_loads) and callable(wcsph.run)

@@ -14,7 +14,7 @@ import tempfile
 
 import numpy as np
 
-from wcsph.run import loads
+from wcsph.solver import loads
 from wcsph.validation import _sim
 from wcsph.validation import references as ref
 

@@ -15,7 +15,7 @@ numba_cache.install()  # an index left by an older wcsph is recompiled, not a tr
 from .case.config import load, validate
 from .errors import CaseError
 from .errors import OutputError, RunInterrupted, SimulationError
-from .run.simulation import Simulation
+from .solver.simulation import Simulation
 from .version import __version__
 
 __all__ = ["CaseError", "OutputError", "RunInterrupted", "Simulation", "SimulationError", "load", "validate", "run"]

@@ -195,7 +195,7 @@ def _main(argv):
             print(f"wcsph: error: {e}", file=sys.stderr)
             return 2
         return 0
-    from .run import parallel
+    from .solver import parallel
 
     try:
         comm = parallel.world()
@@ -228,7 +228,7 @@ def _main(argv):
 def _run(args, print):
     """``wcsph run`` and ``wcsph resume``; ``print`` is silent on the ranks other than 0."""
     from .errors import OutputError, RunInterrupted, SimulationError
-    from .run.simulation import Simulation
+    from .solver.simulation import Simulation
 
     out = None
     try:

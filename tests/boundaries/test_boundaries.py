@@ -231,7 +231,7 @@ def test_damping_zone_relaxes_the_velocity_inside_it():
     """v <- v (1 - dt beta s^2), s the depth into the zone along its direction over its length:
     nothing before and at its entrance, the full rate at its end."""
     from wcsph.backends import get_backend
-    from wcsph.run.damping import Damping, DampedFluid
+    from wcsph.solver.damping import Damping, DampedFluid
 
     zone = {"min": [1.0, 0.0], "max": [3.0, 1.0], "direction": [1.0, 0.0], "strength": 10.0}
     d = Damping(get_backend("cpu"), 2, [zone])

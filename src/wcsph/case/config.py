@@ -49,7 +49,7 @@ WALL_FILE = dict({"file": ("str", "", None), "mesh": ("str", "", None),
 #: pressure sensor at ``position``; water-level gauge along the vertical line from
 #: ``position`` up by ``length`` (0: to the top of the domain); ``extrapolate``: a pressure
 #: sensor carries each particle's p to the point along the momentum equation's grad p
-#: a ``[[damping]]`` zone (``run.damping``): a box where waves are absorbed
+#: a ``[[damping]]`` zone (``solver.damping``): a box where waves are absorbed
 DAMPING = {"min": ("vec", REQUIRED, None), "max": ("vec", REQUIRED, None), "direction": ("vec", None, None),
            "strength": ("float", 10.0, POS)}
 #: a ``[[grids]]`` table: nodes origin + sum_a i_a axes[a] / (counts[a] - 1), i_a = 0 .. counts[a] - 1

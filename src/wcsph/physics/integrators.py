@@ -4,7 +4,7 @@ An integrator sees a particle set through ``StateView``: the state (x, v and, fo
 a continuity equation, rho), the derivatives the model last wrote (dvdt, drhodt), p and m
 (for the energy residual), and its own arrays (x_n v_n rho_n: the state at the start of the step; dv_t drho_t: the
 implicit midpoint's iterated derivatives; k: Runge-Kutta stages; w: per-stage
-coefficients). A step gets the run state (``run.state.State``): it calls ``state.evaluate(P, at)``
+coefficients). A step gets the run state (``solver.state.State``): it calls ``state.evaluate(P, at)``
 for the derivatives at the current state, which is that of time t + at dt (moving walls are
 placed at that time), ``state.view(w)`` for the particles as the maps see
 them, and ``state.reduce(map, view, P)`` for a reduction map (over every process's particles

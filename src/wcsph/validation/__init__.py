@@ -39,7 +39,7 @@ def _sim(case, overrides=()):
     import warnings
 
     from ..case.config import apply_override, load, validate
-    from ..run.simulation import Simulation
+    from ..solver.simulation import Simulation
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

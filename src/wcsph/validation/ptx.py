@@ -47,7 +47,7 @@ def _with_device_starts(a):
 def record(case, steps=2):
     """The passes, maps and reductions of ``case`` (a validated case dict) with their first
     arguments, from ``steps`` steps on the CPU backend."""
-    from ..run.simulation import Simulation
+    from ..solver.simulation import Simulation
     from ..backends.cpu import CpuBackend
     from ..backends.cuda import CudaBackend
 

@@ -1,12 +1,12 @@
-"""``Simulation``: a case set up (``run.setup``) and the ordered stages of its step.
+"""``Simulation``: a case set up (``solver.setup``) and the ordered stages of its step.
 
-A step is the list ``stages``, each a callable of the run state (``run.state.State``):
+A step is the list ``stages``, each a callable of the run state (``solver.state.State``):
 
 1. ``Sort``: the particles by cell (in a decomposed run: migrated, ghosts exchanged);
 2. the step's parameters (``Integrate.parameters``);
 3. ``InflowBefore``: the open boundaries' buffers kept (cases with open boundaries);
 4. ``Integrate``: the integrator's evaluations and maps (each places the walls on prescribed
-   paths at its time: ``run.walls``);
+   paths at its time: ``solver.walls``);
 4b. ``WallsAtStepEnd``: those walls at the step's end time (cases with them);
 5. ``AfterStep``: the model's after-step passes;
 6. ``InflowAfter``: buffers prescribed, particles enter and leave;
@@ -17,7 +17,7 @@ A step is the list ``stages``, each a callable of the run state (``run.state.Sta
 9. ``MoveWalls``: the floating bodies' walls to their new place (cases with floating bodies);
 10. ``Check``: speeds for the next step, and the stop on a non-physical state.
 
-Between steps the time loop (``run.loop``) writes frames, probes and checkpoints and
+Between steps the time loop (``solver.loop``) writes frames, probes and checkpoints and
 watches for signals.
 """
 import time
@@ -88,7 +88,7 @@ class Simulation:
             self.__dict__[name] = value
 
     def time_step(self):
-        """The next step's size (``run.timestep``)."""
+        """The next step's size (``solver.timestep``)."""
         return self.time_step_rule(self.state)
 
     def step(self, dt):
@@ -100,7 +100,7 @@ class Simulation:
         return self.state.dt
 
     def body_loads(self):
-        """Force and torque of the fluid on each named body (``run.loads``)."""
+        """Force and torque of the fluid on each named body (``solver.loads``)."""
         return body_loads(self.state, self.bodies)
 
     def save_checkpoint(self, path, output_state=None):
@@ -109,7 +109,7 @@ class Simulation:
     read_checkpoint = staticmethod(checkpoint.read)
 
     def restore(self, meta, arrays, source="checkpoint"):
-        """Continue from a checkpoint of the same case (``run.checkpoint``)."""
+        """Continue from a checkpoint of the same case (``solver.checkpoint``)."""
         self.resumed_output = checkpoint.restore(self.state, self.integrator, self.open, meta, arrays, source,
                                                  self.bodies)
         MoveWalls(self.bodies)(self.state)

@@ -1,5 +1,5 @@
 """Stage: the floating bodies' rigid-body step (``floating``), after the fluid's: the fluid's
-force and torque on each at the step's end (``run.loads``) and gravity move it by the step's
+force and torque on each at the step's end (``solver.loads``) and gravity move it by the step's
 dt; floating boxes that met are parted (``floating.collide``) and put back inside the tank;
 ``MoveWalls`` then places its walls."""
 from ..boundaries.floating import collide

@@ -1,5 +1,5 @@
 """Run cases for a number of steps and save the final fluid state, sorted by particle id, to
-an .npz: run under ``mpiexec -n N`` by tests/run/test_parallel.py and compared with the same
+an .npz: run under ``mpiexec -n N`` by tests/solver/test_parallel.py and compared with the same
 script on one process. Usage: mpi_run.py OUT.npz STEPS CASE [KEY=VALUE ...] [-- CASE ...]"""
 import sys
 

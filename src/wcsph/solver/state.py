@@ -2,7 +2,7 @@
 
 ``State`` holds the particle sets, the cell grid, the model and its parameters ``P``, the
 decomposition over ranks (``par``, None in a plain run), the time and the step's scalars
-(``dt``, ``vmax``, ``amax``, the counts). Every stage of a step (``run.simulation`` lists them), the
+(``dt``, ``vmax``, ``amax``, the counts). Every stage of a step (``solver.simulation`` lists them), the
 integrators, the open boundaries, the probes and the output take a State; none of them
 reaches into the driver. The scalars a stage produces for the next one (``vmax``, ``amax``,
 ``bad``, ``n_owned``) are fields here, so that a backend that keeps the state on a device
@@ -16,7 +16,7 @@ from ..physics.integrators import StateView
 
 
 class State:
-    """A case's particles and scalars as the stages see them (set up by ``run.setup``)."""
+    """A case's particles and scalars as the stages see them (set up by ``solver.setup``)."""
 
     def __init__(self, case, backend, grid, model, P, fluid, walls, *, domain, h, c0, mass, par=None, halo=None):
         self.case, self.backend = case, backend
@@ -31,7 +31,7 @@ class State:
         self.t = 0.0
         self.steps = 0
         self.dt = 0.0  # the step being taken (the stages of one step read it)
-        self.walls_at = None  # t -> walls on prescribed paths placed at t (``run.walls.clock``)
+        self.walls_at = None  # t -> walls on prescribed paths placed at t (``solver.walls.clock``)
         self.walls_t = 0.0  # the time the moving walls were last placed at
         self.evaluations = 0  # derivative evaluations (integrator stages, midpoint iterations)
         self.dropped = 0  # fluid particles that left the domain

@@ -8,7 +8,7 @@ keep the particles off the wall where it then is. (With the walls held at the st
 through the step and its corrections, a moving body's face lagged the fluid by about half a
 step: in SPHERIC test 6 a single step of another size set the drag ringing by +-30 %, and
 the steps clipped onto the 0.05 s sample times read the mean drag 22 % low; docs/accuracy.md.)
-A floating body moves once, after the fluid's step (``run.floating``); ``MoveWalls`` then
+A floating body moves once, after the fluid's step (``solver.floating``); ``MoveWalls`` then
 places its walls.
 """
 from ..errors import SimulationError

@@ -5,9 +5,9 @@ from types import SimpleNamespace
 import pytest
 
 from wcsph.errors import SimulationError
-from wcsph.run.check import Check
-from wcsph.run.loop import Every
-from wcsph.run.timestep import TimeStep
+from wcsph.solver.check import Check
+from wcsph.solver.loop import Every
+from wcsph.solver.timestep import TimeStep
 
 TIME = {"dt": 0.0, "dtInit": 0.0, "dtMin": 0.0, "force_cfl": 0.25}
 
@@ -69,7 +69,7 @@ def test_the_stages_of_a_case_follow_from_it():
     after its step, after the time advanced; the check comes last."""
     from types import SimpleNamespace
 
-    from wcsph.run.simulation import stages
+    from wcsph.solver.simulation import stages
 
     fixed = SimpleNamespace(floating={}, prescribed=False)
     floating = SimpleNamespace(floating={1: object()}, prescribed=False)
