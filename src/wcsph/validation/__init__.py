@@ -318,7 +318,7 @@ def spheric2_classic(quick):
 
 def moving_square(quick, overrides=()):
     """SPHERIC test 6 (``moving_square_2d``, Re = 100) at 40 particles across the square (the
-    case ships 20 for a quick look: its mean is 5-7 % low there): the drag coefficient
+    case ships 20 for a quick look: its mean is 7-8 % low there): the drag coefficient
     C_D = -2 F_x / (rho U^2 L) against the reference, its mean over 2 <= t <= 6 s (within 5 %)
     and the RMS of the difference (at most 0.15)."""
     import csv
