@@ -203,7 +203,8 @@ class WCSPH:
         self.load_pass = None
         if self.boundary == "elements":  # the fluid's load on each element (body forces)
             shear = sel["viscous"].build(ctx, q).wall if sel["viscous"].build is not None else []
-            self.load_pass = mk(dim, dtype, *make_element_loads(ctx, compose(*shear) if shear else None))
+            self.load_pass = mk(dim, dtype, *make_element_loads(
+                ctx, compose(*shear) if shear else None, shared=self.consistent and sel["viscous"].nu is None))
 
         fluid, walls = [], []
         for slot in ("density", "pressure", "diffusive", "viscous", "xsph"):
