@@ -72,7 +72,7 @@ class State:
         there first; a decomposed run first refreshes its ghosts' state from their owners."""
         self.evaluations += 1
         if self.walls_at is not None:
-            self.walls_at(self.t + at * float(P.dt) if at else self.t)
+            self.walls_at(self.t + at * float(P.dt))
         if self.par is not None:
             self.par.update(self.fluid, self.model.exchanged["state"])
         self.model.derivatives(self.fluid, self.walls, P, self.G, self.halo)

@@ -64,6 +64,13 @@ def couette(y, t, L, U, nu, terms=400):
     return u
 
 
+def couette_wall_shear(t, L, U, mu, nu, terms=400):
+    """The shear stress on the moving plate y = L of ``couette``'s flow, mu du/dy there:
+    mu U/L (1 + 2 sum_n exp(-nu n^2 pi^2 t/L^2)) (Stokes' first problem while it is young)."""
+    n = np.arange(1, terms)
+    return mu * U / L * (1 + 2 * np.sum(np.exp(-nu * n**2 * np.pi**2 * t / L**2)))
+
+
 def taylor_green_decay_rate(re):
     """d ln(E_k)/dt of the Taylor-Green vortex on the unit square (U = 1): -16 pi^2 / Re."""
     return -16 * np.pi**2 / re
