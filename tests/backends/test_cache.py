@@ -58,6 +58,17 @@ def test_the_cases_are_shipped():
     assert set(CASES) <= set(shipped_cases())
 
 
+def test_the_group_keeps_this_module_on_one_worker(request):
+    """Under ``--dist loadgroup`` xdist marks a grouped test's id with ``@group`` and sends the
+    group to one worker; a pytest whose node ids ignore that mark (pytest 9.2 with xdist 3.8)
+    spreads the group, and each worker then fills the cache above (1.5 minutes each)."""
+    if getattr(request.config.option, "loadgroup", None) is None:
+        pytest.skip("not a pytest-xdist worker")
+    if not request.config.option.loadgroup:
+        pytest.skip("not run with --dist loadgroup")
+    assert request.node.nodeid.endswith("@numba_cache"), request.node.nodeid
+
+
 @pytest.mark.parametrize("name", CASES)
 def test_second_run_loads_every_loop_from_the_cache(name, cache_dir, tmp_path):
     log, summary = _run(name, tmp_path, cache_dir)

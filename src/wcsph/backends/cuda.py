@@ -21,6 +21,7 @@ The grid constants are uploaded once per grid.
 import math
 
 import numpy as np
+from numba import config as numba_config
 from numba import cuda
 
 try:  # numba-cuda's own (the CUDA pipeline does not know Numba's)
@@ -29,6 +30,16 @@ except ImportError:  # the simulator runs the Python source
     from numba import literal_unroll
 
 from .walk import make_periodic_walk, make_run_visitor, particle_check
+
+if numba_config.ENABLE_CUDASIM:
+    # Numba's CUDA simulator runs each thread of a block as a Python thread, and every
+    # ``syncthreads`` waits until each of them has had the interpreter: at Python's default
+    # switch interval (5 ms) a block reduction's barriers cost seconds per launch. A shorter
+    # interval makes the simulator's runs 4 times faster (the tests and
+    # ``benchmarks/cuda_counts.py`` run there); on a GPU nothing changes.
+    import sys
+
+    sys.setswitchinterval(1e-4)
 
 THREADS = 128
 #: the cell-start scan's chunks (the elements a thread scans serially): at least this long,
