@@ -4,11 +4,13 @@ one kernel per pass, one thread per particle of set I.
 Everything stays on the device, with numba-cuda alone (no CuPy), the same in the simulator
 (``NUMBA_ENABLE_CUDASIM=1``) the tests run:
 
-* the sort is a counting sort on the cell ids in six launches: an atomic histogram (with the
-  cell ids), an exclusive scan of it in two (the cell starts), an atomic scatter of the
-  particle indices into their cells, then each cell's indices put in increasing order (the
-  scatter's order depends on the threads' timing; after it the permutation is exactly the
-  CPU's stable argsort), then one gather of every field;
+* the sort is a counting sort on the cell ids in four launches: an exclusive scan of the
+  cells' histogram (the cell starts, each block starting from the sums of the chunks before
+  its own), an atomic scatter of the particle indices into their cells, then each cell's
+  indices put in increasing order (the scatter's order depends on the threads' timing; after
+  it the permutation is exactly the CPU's stable argsort), then one gather of every field.
+  The cell ids, their histogram and the chunk sums the scan starts from are counted by the
+  check after the step before (a fifth launch only when the positions changed since);
 * reductions (the step's largest speed and acceleration, a sum of residuals) are a block
   reduction in shared memory, whose results the last block to finish reduces in the same
   launch; only the few results cross to the host;
@@ -66,21 +68,24 @@ def _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k):
     return cx + nx * (cy + ny * cz) if inside else ncells
 
 
-@cuda.jit
-def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
-    i = cuda.grid(1)
-    if i < x.shape[1]:
-        cell[i] = _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k)
+@cuda.jit(device=True)
+def _count(c, count, sums, chunk):
+    """Particle in cell c counted in the histogram ``count`` and in its chunk's sum."""
+    cuda.atomic.add(count, c, 1)
+    cuda.atomic.add(sums, c // chunk, 1)
 
 
 @cuda.jit
-def _cell_ids_counted(x, origin, inv_cell, nx, ny, nz, ncells, k, cell, count):
-    """``_cell_ids`` and ``_histogram`` in one launch."""
+def _cell_ids_counted(x, origin, inv_cell, nx, ny, nz, ncells, k, drop, use_drop, cell, count, sums, chunk):
+    """cell[i] = the cell of particle i (``ncells`` outside the grid, or where drop[i] when
+    ``use_drop``), counted in the histogram and the chunk sums."""
     i = cuda.grid(1)
     if i < x.shape[1]:
         c = _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k)
+        if use_drop and drop[i]:
+            c = ncells
         cell[i] = c
-        cuda.atomic.add(count, c, 1)
+        _count(c, count, sums, chunk)
 
 
 @cuda.jit
@@ -115,30 +120,30 @@ def _gather2(src, perm, dst):
 
 
 @cuda.jit
-def _histogram(cell, count):
+def _histogram(cell, count, sums, chunk):
     i = cuda.grid(1)
     if i < cell.size:
-        cuda.atomic.add(count, cell[i], 1)
+        _count(cell[i], count, sums, chunk)
 
 
 @cuda.jit
-def _chunk_sums(a, chunk, sums):
-    t = cuda.grid(1)
-    if t < sums.size:
-        s = 0
-        for k in range(t * chunk, min((t + 1) * chunk, a.size)):
-            s += a[k]
-        sums[t] = s
+def _zero(a):
+    i = cuda.grid(1)
+    if i < a.size:
+        a[i] = 0
 
 
 @cuda.jit
-def _scan_chunks(a, chunk, sums, out, fill):
+def _scan_chunks(a, chunk, sums, out, fill, ticket):
     """out[k] = fill[k] = the sum of a[:k] (exclusive), thread t of block b scanning chunk
-    c = b * THREADS + t from the sum of the chunks before it: the chunk sums before the
-    block's first (summed by the block's threads) plus the block's own up to c (a scan in
-    shared memory). a is left zero (the histogram's counts, consumed: the next sort counts
-    from zero). Launch with THREADS threads per block and one thread per chunk."""
+    c = b * THREADS + t (a[c chunk:(c + 1) chunk], whose sum is sums[c]) from the sum of the
+    chunks before it: the chunk sums before the block's first (summed by the block's
+    threads) plus the block's own up to c (a scan in shared memory). a and sums are left
+    zero (the histogram and its chunk sums, consumed: the next sort counts from zero; the
+    last block to have read the sums zeroes them, and resets ``ticket``). Launch with
+    THREADS threads per block and one thread per chunk."""
     tile = cuda.shared.array(THREADS, dtype=np.int64)
+    last = cuda.shared.array(1, dtype=np.int64)
     t = cuda.threadIdx.x
     first = cuda.blockIdx.x * THREADS
     s = 0
@@ -167,6 +172,16 @@ def _scan_chunks(a, chunk, sums, out, fill):
         tile[t] += v
         cuda.syncthreads()
         d *= 2
+    if t == 0:  # every read of the sums is done in this block (the barrier above)
+        last[0] = 1 if cuda.atomic.add(ticket, 0, 1) == cuda.gridDim.x - 1 else 0
+    cuda.syncthreads()
+    if last[0] == 1:
+        m = t
+        while m < sums.size:
+            sums[m] = 0
+            m += THREADS
+        if t == 0:
+            ticket[0] = 0
     if c < sums.size:
         s = base + tile[t] - own
         for k in range(c * chunk, min((c + 1) * chunk, a.size)):
@@ -219,43 +234,36 @@ def _buffer(work, name, n):
     return a
 
 
-def _exclusive_scan(a, out, fill, work):
-    """out[k] = fill[k] = sum of a[:k] (int64 device arrays of one length), a left zero; two
-    launches: the chunks' sums, then each chunk scanned from its offset. The chunks are at
-    least SCAN_CHUNK long and at most SCAN_CHUNKS many, which bounds the offsets' work (each
-    block sums the chunk sums before it)."""
-    chunk = max(SCAN_CHUNK, math.ceil(a.size / SCAN_CHUNKS))
-    nchunks = math.ceil(a.size / chunk)
-    sums = _buffer(work, "sums", nchunks)
-    _chunk_sums[_blocks(nchunks), THREADS](a, chunk, sums)
-    _scan_chunks[_blocks(nchunks), THREADS](a, chunk, sums, out, fill)
+def _sort_buffers(work, ncells):
+    """(count, sums, chunk, ticket) of the dict ``work``: the histogram of ncells + 2 cells,
+    its sums over chunks of ``chunk`` cells, the scan's last-block ticket; allocated zero once
+    per grid size, and left zero by each sort. The chunks are at least SCAN_CHUNK long and at
+    most SCAN_CHUNKS many, which bounds the scan's work (each block sums the chunk sums before
+    it)."""
+    m = ncells + 2
+    chunk = max(SCAN_CHUNK, math.ceil(m / SCAN_CHUNKS))
+    return _buffer(work, "count", m), _buffer(work, "sums", math.ceil(m / chunk)), chunk, _buffer(work, "ticket", 1)
 
 
 def _counting_sort(cell, ncells, work, counted=False):
     """(perm, start) for cell ids in [0, ncells] (ncells: outside the grid): perm the stable
     order by cell (new position -> old index), start[c] the first position of cell c,
     start[ncells + 1] = n. All on the device, in the buffers of the dict ``work`` (one per
-    particle set: its ``start`` and ``_perm`` are these). ``counted``: the histogram
-    ``work["count"]`` is already made (``_cell_ids_counted``); it is zero after the call."""
+    particle set: its ``start`` and ``_perm`` are these). ``counted``: the histogram and its
+    chunk sums (``_sort_buffers``) are already made (``_cell_ids_counted`` or the check); they
+    are zero after the call."""
     n = cell.size
-    count = _buffer(work, "count", ncells + 2)
+    count, sums, chunk, ticket = _sort_buffers(work, ncells)
     if n and not counted:
-        _histogram[_blocks(n), THREADS](cell, count)
+        _histogram[_blocks(n), THREADS](cell, count, sums, chunk)
     start = _buffer(work, "start", ncells + 2)
     fill = _buffer(work, "fill", ncells + 2)
-    _exclusive_scan(count, start, fill, work)
+    _scan_chunks[_blocks(sums.size), THREADS](count, chunk, sums, start, fill, ticket)
     perm = _buffer(work, "perm", n)
     if n:
         _scatter_cells[_blocks(n), THREADS](cell, fill, perm)
         _order_cells[_blocks(ncells + 1), THREADS](start, perm)
     return perm, start
-
-
-@cuda.jit
-def _drop_cells(cell, drop, ncells):
-    i = cuda.grid(1)
-    if i < cell.size and drop[i]:
-        cell[i] = ncells
 
 
 @cuda.jit
@@ -442,10 +450,13 @@ def _reduce_blocks(out, is_max, mask, masked, partial, final, counter):
 
 
 @cuda.jit
-def _check_blocks(x, v, a, origin, inv_cell, nx, ny, nz, ncells, k, mask, masked, is_max, partial, final, counter):
+def _check_blocks(x, v, a, origin, inv_cell, nx, ny, nz, ncells, k, mask, masked, is_max, partial, final, counter,
+                  count_cells, cell, count, sums, chunk):
     """The check's figures, reduced in one launch: final[:, 0] = (largest |v|^2, largest
     |a|^2, particles with anything non-finite, particles outside the grid) (owned ones only,
-    when ``masked``); ``is_max`` the rows' ops (max, max, sum, sum)."""
+    when ``masked``); ``is_max`` the rows' ops (max, max, sum, sum). With ``count_cells``
+    (every particle checked) also the next sort's cell ids, histogram and chunk sums
+    (``_cell_ids_counted``)."""
     tile = cuda.shared.array(THREADS, dtype=np.float64)
     vmax2 = 0.0
     amax2 = 0.0
@@ -460,8 +471,12 @@ def _check_blocks(x, v, a, origin, inv_cell, nx, ny, nz, ncells, k, mask, masked
                 amax2 = max(amax2, q)
             else:
                 bad += 1.0
-            if _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k) == ncells:
+            c = _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k)
+            if c == ncells:
                 outside += 1.0
+            if count_cells:
+                cell[i] = c
+                _count(c, count, sums, chunk)
         i += cuda.gridsize(1)
     b = cuda.blockIdx.x
     _block_tree(tile, vmax2, True, 0, partial, b)
@@ -490,6 +505,15 @@ def _mask(owned):
             _OPS["unmasked"] = cuda.to_device(np.zeros(1, dtype=np.int8))
         return _OPS["unmasked"]
     return owned if hasattr(owned, "copy_to_host") else cuda.to_device(np.ascontiguousarray(owned))
+
+
+def _unused(dtype):
+    """A one-element device array of ``dtype`` for an argument a launch does not read
+    (uploaded once per dtype)."""
+    key = ("unused", np.dtype(dtype).str)
+    if key not in _OPS:
+        _OPS[key] = cuda.to_device(np.zeros(1, dtype=dtype))
+    return _OPS[key]
 
 
 def _counter():
@@ -570,17 +594,23 @@ class CudaBackend:
         x = pset["x"]
         n = pset.n
         origin, inv_cell = _on_device(grid, np.dtype(x.dtype).type)
-        if "cell" not in pset.arrays or pset["cell"].shape[0] != n:
-            pset["cell"] = cuda.device_array(n, dtype=np.int64)
-        cell = pset["cell"]
         work = pset.__dict__.setdefault("_sort_work", {})
-        if n and drop is None:  # the cell ids and their histogram in one launch
-            count = _buffer(work, "count", g.ncells + 2)
-            _cell_ids_counted[_blocks(n), THREADS](x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell, count)
-        elif n:
-            _cell_ids[_blocks(n), THREADS](x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k, cell)
-            _drop_cells[_blocks(n), THREADS](cell, drop, g.ncells)
-        perm, start_d = _counting_sort(cell, g.ncells, work, counted=drop is None)
+        count, sums, chunk, _ = _sort_buffers(work, g.ncells)
+        counted = pset.__dict__.pop("_counted", None)  # (x, n, grid) whose cells the check counted
+        if counted is not None and drop is None and counted[0] is x and counted[1] == n and counted[2] is grid:
+            # the cell ids, in the set's spare cell array, swap with the last sort's
+            work["cell"], pset["cell"] = pset["cell"], work["cell"]
+        else:
+            if counted is not None:  # counted for positions that have changed since
+                _zero[_blocks(count.size), THREADS](count)
+                _zero[_blocks(sums.size), THREADS](sums)
+            if "cell" not in pset.arrays or pset["cell"].shape[0] != n:
+                pset["cell"] = cuda.device_array(n, dtype=np.int64)
+            if n:
+                _cell_ids_counted[_blocks(n), THREADS](x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k,
+                                                       _unused(np.uint8) if drop is None else drop, drop is not None,
+                                                       pset["cell"], count, sums, chunk)
+        perm, start_d = _counting_sort(pset["cell"], g.ncells, work, counted=True)
         stays = pset.__dict__.get("_stays")
         pset.__dict__["_stays"] = None
         pset.__dict__["_grid"] = grid
@@ -660,8 +690,11 @@ class CudaBackend:
 
     @staticmethod
     def _check(pset, owned, grid):
+        """The check's reduction; with every particle checked (``owned`` None) on a known
+        grid, it counts the cells of the set's next sort too (``_counted``)."""
         n = pset.n
         x = pset["x"]
+        count_cells = grid is not None and owned is None
         if grid is None:
             origin = inv = cuda.to_device(np.zeros(3, dtype=x.dtype))
             nx = ny = nz = ncells = k = 2 ** 40  # no cell is out of range
@@ -669,10 +702,21 @@ class CudaBackend:
             g = grid.view()
             origin, inv = _on_device(grid, np.dtype(x.dtype).type)
             nx, ny, nz, ncells, k = g.nx, g.ny, g.nz, g.ncells, g.k
+        cell = count = sums = _unused(np.int64)
+        chunk = 1
+        if count_cells:
+            work = pset.__dict__.setdefault("_sort_work", {})
+            count, sums, chunk, _ = _sort_buffers(work, ncells)
+            cell = work.get("cell")
+            if cell is None or cell.shape[0] != n:
+                cell = work["cell"] = cuda.device_array(n, dtype=np.int64)
         nb = min(REDUCE_BLOCKS, _blocks(n))
         partial, final = _scratch((4, nb)), _scratch((4, 1))
         ops = ("max", "max", "sum", "sum")
         _check_blocks[nb, THREADS](x, pset["v"], pset["dvdt"], origin, inv, nx, ny, nz, ncells, k, _mask(owned),
-                                   owned is not None, _flags(ops), partial, final, _counter())
+                                   owned is not None, _flags(ops), partial, final, _counter(),
+                                   count_cells, cell, count, sums, chunk)
+        if count_cells:
+            pset.__dict__["_counted"] = (x, n, grid)
         vmax2, amax2, bad, outside = _rows_to_host(final, ops)
         return vmax2, amax2, int(bad), int(outside)

@@ -98,18 +98,18 @@ def _backend_kernels(dtype, dim):
     part = np.zeros((4, 2))
     n = np.int64(4)
     return [
-        ("_cell_ids_counted", cb._cell_ids_counted, (x, f[:3], f[:3], n, n, n, n, n, i64, i64)),
-        ("_cell_ids", cb._cell_ids, (x, f[:3], f[:3], n, n, n, n, n, i64)),
-        ("_drop_cells", cb._drop_cells, (i64, np.zeros(4, dtype=np.uint8), n)),
-        ("_chunk_sums", cb._chunk_sums, (i64, n, i64)),
-        ("_scan_chunks", cb._scan_chunks, (i64, n, i64, i64, i64)),
+        ("_cell_ids_counted", cb._cell_ids_counted, (x, f[:3], f[:3], n, n, n, n, n, np.zeros(4, dtype=np.uint8),
+                                                     False, i64, i64, i64, n)),
+        ("_histogram", cb._histogram, (i64, i64, i64, n)),
+        ("_zero", cb._zero, (i64,)),
+        ("_scan_chunks", cb._scan_chunks, (i64, n, i64, i64, i64, i64[:1])),
         ("_scatter_cells", cb._scatter_cells, (i64, i64, i64)),
         ("_order_cells", cb._order_cells, (i64, i64)),
         ("_gather_fields", cb._gather_fields, ((((x, f[None]), (x, f[None])), ((i64[None],), (i64[None],))), i64, n)),
         ("_wrap", cb._wrap, (x, f[:3], f[:3], f[:3], f[:3], n, i64, i64)),
         ("_reduce_blocks", cb._reduce_blocks, (part, i8, i8, False, part, part[:, :1], i64[:1])),
         ("_check_blocks", cb._check_blocks, (x, x, x, f[:3], f[:3], n, n, n, n, n, i8, False, i8, part, part[:, :1],
-                                             i64[:1])),
+                                             i64[:1], True, i64, i64, i64, n)),
     ]
 
 
