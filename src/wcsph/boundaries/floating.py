@@ -49,8 +49,12 @@ Contact: a body meets the tank's walls (its faces, the open top aside) as rigid,
 contact: after each step, a wall point of the body that has passed a tank face puts the body
 back on the face (along its free axes), and impulses along the face's normal through the
 contact points (the ends, along the face, of the points past it) remove the velocity into the
-face there, turning the body as well (rigid, inelastic, frictionless). A body resting on the floor stays
-there; one thrown at a wall stops at it; one landing on a corner falls flat. The
+face there, turning the body as well (rigid, inelastic). A body resting on the floor stays
+there; one thrown at a wall stops at it; one landing on a corner falls flat. The contacts are
+frictionless unless ``friction`` gives Coulomb's coefficient mu: then impulses along the face
+at the same points also take out the sliding speed there, each at most mu times that point's
+normal impulse, so that a body on a slope stays where tan(slope) <= mu and slides with
+g (sin - mu cos) where it is steeper (with another body, the lesser of the two mu). The
 same holds a body out of the case's fixed obstacle boxes: wall points of the body inside one
 move the body out by the least push along a free axis, and impulses through them take its
 velocity into the box out, turning it as at the tank's faces.
@@ -78,6 +82,9 @@ FLOATING = {
     "translation": ("flags", None, None),  # free translation axes (default: all free)
     "rotation": ("rotation_flags", None, None),  # free rotation (2D: one flag; 3D: about x, y, z)
     "hinge": ("vec", None, None),  # the point the body turns about (default: its centre of mass)
+    # Coulomb's friction coefficient of its contacts (0: frictionless; with another body the
+    # lesser of the two)
+    "friction": ("float", 0.0, (lambda v: v >= 0, "must be zero or positive")),
     "springs": ([{  # springs and mooring lines to fixed anchors (see the module)
         "anchor": ("vec", REQUIRED, None),
         "point": ("vec", None, None),  # on the body, where it is at the start (default: the centre of mass)
@@ -142,10 +149,11 @@ class FloatingBody:
     (displacement of the centre, rotation, velocities, accelerations)."""
 
     def __init__(self, key, dim, mass, centre, inertia, release=0.0, added_mass=0.0, added_inertia=0.0,
-                 translation=None, rotation=None, hinge=None, springs=()):
+                 translation=None, rotation=None, hinge=None, springs=(), friction=0.0):
         if not mass > 0 or not np.all(np.isfinite(inertia)) or np.any(np.linalg.eigvalsh(np.atleast_2d(inertia)) <= 0):
             raise CaseError(f"{key}.floating: the body needs a positive mass and inertia (got mass {mass:g})")
         self.key, self.dim, self.mass, self.release = key, dim, float(mass), float(release)
+        self.friction = float(friction)
         self.added_mass = float(added_mass)
         if dim == 3:  # a tensor (0: none)
             self.added_inertia = np.asarray(added_inertia, dtype=float) if np.ndim(added_inertia) else np.zeros((3, 3))
@@ -314,7 +322,7 @@ class FloatingBody:
         """Impulses along n through the contact points r (dim, K, about the centre) that take
         the velocity into the surface out at each of them, then the accelerations likewise
         (``contact_impulses``)."""
-        contact_impulses([(self, n, r)])
+        contact_impulses([(self, n, r)], self.friction)
 
     def _responses(self, n, r):
         """(du, dw, arms) of unit impulses along n through the points r (dim, K, about the
@@ -451,7 +459,7 @@ def _extremes(r, n):
     return r[:, sorted(keep)]
 
 
-def contact_impulses(sides):
+def contact_impulses(sides, friction=0.0):
     """Impulses at K contact points that take the speed of approach out at each: ``sides``
     lists (body, n, r) for each body at the contact, n the normal out of the other body or
     the surface, r (dim, K) the points about the body's centre; point k's impulse J_k acts
@@ -461,7 +469,12 @@ def contact_impulses(sides):
     projected Gauss-Seidel (sequential impulses, each point's total kept non-negative, swept
     until no point's speed changes by more than ``CONTACT_TOL``); the velocities, then the
     accelerations likewise. A landing on a corner turns the body, one on a face stops it
-    (rigid, inelastic, frictionless; with two bodies momentum and angular momentum kept)."""
+    (rigid, inelastic; with two bodies momentum and angular momentum kept). With ``friction``
+    mu > 0 the sliding at each point is taken out too, within Coulomb's bound
+    (``_friction_impulses``)."""
+    if friction > 0.0:
+        _friction_impulses(sides, friction)
+        return
     resp = [body._responses(n, r) for body, n, r in sides]
     A = sum(float(n @ du) + (np.outer(arms, dw) if arms.ndim == 1 else arms @ dw.T)
             for (_, n, _), (du, dw, arms) in zip(sides, resp))
@@ -473,6 +486,97 @@ def contact_impulses(sides):
         for (body, _, _), (du, dw, arms) in zip(sides, resp):
             setattr(body, a, getattr(body, a) + J.sum() * du)
             setattr(body, b, getattr(body, b) + J @ dw)
+
+
+def _tangents(n):
+    """Unit directions along a face of unit normal n (2D: one; 3D: two, orthogonal)."""
+    if n.size == 2:
+        return [np.array([-n[1], n[0]])]
+    t1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    t1 /= np.linalg.norm(t1)
+    return [t1, np.cross(n, t1)]
+
+
+def _friction_impulses(sides, mu):
+    """``contact_impulses`` with Coulomb's friction: at each of the K contact points an
+    impulse J_n >= 0 along the normal and J_t along the face (one direction in 2D, two in 3D)
+    with |J_t| <= mu J_n, which together take out the speed of approach and, within that
+    bound, the sliding speed there (a sticking point stops sliding, a slipping one is slowed
+    by mu J_n). The rows' coupling A (the speed of row i per unit impulse of row j, summed
+    over the sides: a normal impulse through a point off the centre turns the body and moves
+    the others' points along the face) is solved by projected Gauss-Seidel as the normal
+    rows alone are, each sweep clamping a point's tangential impulse to its disk of radius
+    mu J_n; the velocities, then the accelerations likewise."""
+    n0 = sides[0][1]
+    dirs = [n0] + _tangents(n0)  # row families: the normal, then the directions along the face
+    K = sides[0][2].shape[1]
+    nd = len(dirs)
+    resp = []  # per side, per direction: (du, dw, arms) of impulses along that side's direction
+    for body, n, r in sides:
+        sign = float(n @ n0)  # +1 for the first side, -1 for the other body's
+        resp.append((sign, [body._responses(sign * d, r) for d in dirs]))
+    A = np.zeros((nd * K, nd * K))
+    for (body, _, _), (sign, rs) in zip(sides, resp):
+        for a, d in enumerate(dirs):
+            arms_a = rs[a][2]
+            for b in range(nd):
+                du, dw, _ = rs[b]
+                block = float(sign * d @ du) + (np.outer(arms_a, dw) if arms_a.ndim == 1 else arms_a @ dw.T)
+                A[a * K:(a + 1) * K, b * K:(b + 1) * K] += block
+    for va, wa in (("u", "omega"), ("du", "alpha")):
+        speed = np.zeros(nd * K)
+        for (body, _, _), (sign, rs) in zip(sides, resp):
+            for a, d in enumerate(dirs):
+                arms = rs[a][2]
+                w = getattr(body, wa)
+                speed[a * K:(a + 1) * K] += float(getattr(body, va) @ (sign * d)) + (arms * w if arms.ndim == 1 else arms @ w)
+        J = _pgs_with_friction(A, speed, K, nd, mu)
+        for (body, _, _), (sign, rs) in zip(sides, resp):
+            for a in range(nd):
+                du, dw, _ = rs[a]
+                Ja = J[a * K:(a + 1) * K]
+                setattr(body, va, getattr(body, va) + Ja.sum() * du)
+                setattr(body, wa, getattr(body, wa) + Ja @ dw)
+
+
+def _pgs_with_friction(A, s, K, nd, mu):
+    """J (nd K: the K normal impulses, then K per direction along the face) with the normal
+    rows' complementarity (J_n >= 0, s_n + (A J)_n >= 0, one of them zero), each point's
+    impulse along the face within |J_t| <= mu J_n and otherwise taking its sliding speed to
+    zero; projected Gauss-Seidel, swept until no row's speed changes by more than
+    ``CONTACT_TOL``."""
+    R = nd * K
+    cols = A.T.tolist()  # cols[i][m]: row m's speed per unit impulse of row i
+    s, J = [float(v) for v in s], [0.0] * R
+    diag = [cols[i][i] for i in range(R)]
+    for _ in range(CONTACT_SWEEPS):
+        before = list(J)
+        for k in range(K):
+            rows = [k] + [a * K + k for a in range(1, nd)]
+            for m, i in enumerate(rows):
+                if diag[i] <= 0.0:
+                    continue  # an impulse there moves nothing
+                new = J[i] - s[i] / diag[i]
+                if m == 0:
+                    new = max(new, 0.0)
+                dj = new - J[i]
+                if dj != 0.0:
+                    J[i] = new
+                    col = cols[i]
+                    for q in range(R):
+                        s[q] += dj * col[q]
+            size = math.sqrt(sum(J[i] * J[i] for i in rows[1:]))
+            bound = mu * J[k]
+            if size > bound:  # sliding: the impulse along the face at Coulomb's bound
+                for i in rows[1:]:
+                    dj = J[i] * (bound / size) - J[i]
+                    J[i] += dj
+                    col = cols[i]
+                    for q in range(R):
+                        s[q] += dj * col[q]
+        if max(abs(J[i] - before[i]) * diag[i] for i in range(R)) <= CONTACT_TOL:  # no row's speed changed
+            break
+    return np.array(J)
 
 
 def _projected_gauss_seidel(A, s):
@@ -548,7 +652,7 @@ def body_of(key, table, dim, mesh=None, rho0=1000.0):
     ca = fl["added_mass"] * rho0  # M_a = C_a rho0 V, I_a = C_a rho0 J (J: per unit density, about c)
     j_c = j if fl["centre"] is None else (j + (vol * (d @ d) if dim == 2 else _parallel_axes(vol, d)))
     body = FloatingBody(key, dim, mass, c, inertia, fl["release"], ca * vol, ca * j_c,
-                        fl["translation"], fl["rotation"], fl["hinge"], fl["springs"])
+                        fl["translation"], fl["rotation"], fl["hinge"], fl["springs"], fl["friction"])
     if table.get("min") is not None:  # a box: other floating boxes stay out of it
         body.box = (np.asarray(table["min"], dtype=float) - c, np.asarray(table["max"], dtype=float) - c)
     return body
@@ -610,7 +714,7 @@ def collide(a, b):
         points = p.c[:, None] + _extremes(x[:, inside] - p.c[:, None], n)  # the contact points
         p.c = p.c + need * inv_p / (inv_p + inv_q) * p.free_t * n
         q.c = q.c - need * inv_q / (inv_p + inv_q) * q.free_t * n
-        contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])])
+        contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])], min(p.friction, q.friction))
         touched = True
     return touched
 
