@@ -581,3 +581,14 @@ def test_friction_between_two_boxes_takes_the_lesser_coefficient(dim):
     assert up.u[0] == pytest.approx(exact, rel=5e-3)
     assert np.abs(low.u).max() < 1e-9 and np.abs(low.omega).max() < 1e-9
     assert up.c[-1] == pytest.approx(0.3, abs=1e-6)
+
+
+def test_a_case_gives_its_body_the_friction_coefficient():
+    """``floating.friction`` in a case reaches the body (0 when not given)."""
+    from wcsph.boundaries.floating import body_of
+
+    base = {"dim": 2, "dp": 0.1, "time": {"end": 0.1}, "fluid": [{"min": [0.0, 0.0], "max": [1.0, 0.5]}],
+            "tank": {"min": [0.0, 0.0], "max": [1.0, 1.0]}}
+    for given, want in (({"density": 500.0, "friction": 0.3}, 0.3), ({"density": 500.0}, 0.0)):
+        case = validate(dict(base, obstacle=[{"name": "b", "min": [0.4, 0.6], "max": [0.6, 0.8], "floating": given}]))
+        assert body_of("obstacle[0]", case["obstacle"][0], 2).friction == want
