@@ -58,11 +58,13 @@ g (sin - mu cos) where it is steeper (with another body, the lesser of the two m
 same holds a body out of the case's fixed obstacle boxes: wall points of the body inside one
 move the body out by the least push along a free axis, and impulses through them take its
 velocity into the box out, turning it as at the tank's faces.
-Two floating boxes (``collide``) are parted the same way in the frame of the one entered, the
-push shared in inverse proportion to their masses, and impulses through the contact points,
-equal and opposite on the two, remove their approach there and turn both (momentum and
-angular momentum kept). A body that is not a box, a moving obstacle, a polygon
-or a wall mesh meet a floating body through the fluid between them alone.
+Two floating bodies (``collide``) are parted the same way in the frame of the one entered,
+which must be convex (a box, a convex polygon, a closed convex wall mesh: its faces as
+half-spaces), the push out through its nearest face shared in inverse proportion to their
+masses, and impulses through the contact points, equal and opposite on the two, remove their
+approach there and turn both (momentum and angular momentum kept). A concave floating body
+holds no other body's points out of it (its own points are still held out of convex ones),
+and a moving obstacle meets a floating body through the fluid between them alone.
 """
 import math
 
@@ -180,6 +182,7 @@ class FloatingBody:
         self.planes = []  # (n, o): the tank's faces, inside where n . x >= o
         self.blocks = []  # (lo, hi): fixed obstacle boxes the body stays out of
         self.box = None  # (lo, hi) about c0 in the body's frame, when the body is an obstacle box
+        self.hull = None  # (N (m, dim), o (m)): a convex body's faces about c0, inside where N y < o
 
     def meet(self, points, planes, blocks=()):
         """The body's wall points (dim, K) at rest, the faces it must stay inside of
@@ -361,6 +364,21 @@ class FloatingBody:
             r = _extremes(x[:, inside] - self.c[:, None], n)  # the contact points about the centre
             self.c = self.c + need * n
             self._impulses(n, r)
+
+    def faces(self):
+        """The body's convex shape as half-spaces in its own frame about its centre, (N, o):
+        outward unit normals (m, dim) and offsets, inside where N y < o; from its box (the
+        faces +x, -x, +y, ...) or its convex polygon or mesh (``hull``); None when it has
+        neither (a concave body meets others through the fluid alone)."""
+        if self.hull is not None:
+            return self.hull
+        if self.box is None:
+            return None
+        lo, hi = self.box
+        eye = np.eye(self.dim)
+        N = np.array([sign * eye[a] for a in range(self.dim) for sign in (1.0, -1.0)])
+        o = np.array([v for a in range(self.dim) for v in (hi[a], -lo[a])])
+        return N, o
 
     def columns(self, name):
         """The probes.csv columns of this body's state."""
@@ -653,9 +671,34 @@ def body_of(key, table, dim, mesh=None, rho0=1000.0):
     j_c = j if fl["centre"] is None else (j + (vol * (d @ d) if dim == 2 else _parallel_axes(vol, d)))
     body = FloatingBody(key, dim, mass, c, inertia, fl["release"], ca * vol, ca * j_c,
                         fl["translation"], fl["rotation"], fl["hinge"], fl["springs"], fl["friction"])
-    if table.get("min") is not None:  # a box: other floating boxes stay out of it
+    if table.get("min") is not None:  # a box: other floating bodies stay out of it
         body.box = (np.asarray(table["min"], dtype=float) - c, np.asarray(table["max"], dtype=float) - c)
+    elif table.get("points") is not None:  # a convex polygon likewise (a concave one: through the fluid)
+        body.hull = convex_faces(np.asarray(table["points"], dtype=float).T - c[:, None])
+    elif mesh is not None:
+        verts, faces = mesh
+        if dim == 3:
+            body.hull = convex_faces(np.asarray(verts, dtype=float) - c[:, None], faces)
+        else:  # a 2D mesh: its outline's segments in order
+            order = _outline(np.asarray(faces))
+            body.hull = None if order is None else convex_faces(np.asarray(verts, dtype=float)[:, order] - c[:, None])
     return body
+
+
+def _outline(segments):
+    """The vertex indices of a closed 2D outline in order, from its segments (index pairs,
+    consistently oriented); None when they are not one closed loop."""
+    nxt = {int(a): int(b) for a, b in segments}
+    if len(nxt) != len(segments) or not nxt:
+        return None
+    start = int(segments[0][0])
+    order, k = [start], nxt[start]
+    while k != start:
+        if k not in nxt or len(order) > len(nxt):
+            return None
+        order.append(k)
+        k = nxt[k]
+    return order if len(order) == len(nxt) else None
 
 
 def tank_planes(tank, dim):
@@ -686,28 +729,34 @@ def _least_push(y, lo, hi, free):
 
 
 def collide(a, b):
-    """Two floating boxes kept apart: the wall points of each inside the other's box (in that
-    box's frame) part the two by the least push along one of its axes, shared in inverse
-    proportion to their masses (a held axis takes none); then impulses along that axis
-    through the contact points (the extremes, along the face, of the points that were inside)
-    take the velocity and acceleration of approach out at each of them, equal and opposite
-    on the two bodies, turning both (rigid, inelastic, frictionless: momentum and angular
-    momentum kept). Returns whether they touched."""
+    """Two floating bodies kept apart, each convex one (a box, a convex polygon or mesh:
+    ``faces``) holding the other's wall points out of it: the points of one inside the other
+    (in that body's frame) part the two by the least push out through one of its faces, along
+    that face's normal, shared in inverse proportion to their masses (a held axis takes
+    none); then impulses along that normal through the contact points (the extremes, along
+    the face, of the points that were inside) take the velocity and acceleration of approach
+    out at each of them, equal and opposite on the two bodies, turning both (rigid,
+    inelastic: momentum and angular momentum kept; friction as ``contact_impulses``). Returns
+    whether they touched."""
     touched = False
     for p, q in ((a, b), (b, a)):
-        if q.box is None or not p.points.shape[1]:
+        shape = q.faces()
+        if shape is None or not p.points.shape[1]:
             continue
+        N, o = shape
         Rp = p.R if p.dim == 3 else _rot2(p.theta)
         Rq = q.R if q.dim == 3 else _rot2(q.theta)
         x = p.c[:, None] + Rp @ p.points
         y = Rq.T @ (x - q.c[:, None])  # p's points in q's frame
-        lo, hi = q.box
-        slack = TOUCH * float(np.max(hi - lo))  # a point left on q's face by the last push is not inside
-        inside = np.all((y > lo[:, None] + slack) & (y < hi[:, None] - slack), axis=0)
+        depth = o[:, None] - N @ y  # (faces, points): how far inside each face
+        slack = TOUCH * _size(N, o)  # a point left on q's face by the last push is not inside
+        inside = np.all(depth > slack, axis=0)
         if not inside.any():
             continue
-        need, k, sign = _least_push(y[:, inside], lo, hi, [True] * p.dim)
-        n = Rq[:, k] * sign  # out of q, for p
+        needs = np.max(depth[:, inside], axis=1)  # the push out through each face
+        f = int(np.argmin(needs))  # the first of the least
+        need = float(needs[f])
+        n = Rq @ N[f]  # out of q, for p
         inv_p, inv_q = (float(n @ (body.free_t * n)) / body.mass for body in (p, q))
         if inv_p + inv_q <= 0.0:
             continue  # both held along it
@@ -717,6 +766,44 @@ def collide(a, b):
         contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])], min(p.friction, q.friction))
         touched = True
     return touched
+
+
+def _size(N, o):
+    """A length of the convex shape (N, o): twice its largest offset (a box's largest side,
+    for a box about its centre)."""
+    return 2.0 * float(np.max(o))
+
+
+def convex_faces(points, tris=None):
+    """(N, o) of the convex body whose boundary has these ``points`` (dim, V) about its centre
+    (2D: a closed polygon in order; 3D: triangles ``tris`` (F, 3) of vertex indices), inside
+    where N y < o with outward unit normals; coplanar faces merged. None when the body is not
+    convex (a vertex outside one of its faces' planes by more than 1e-9 of its size)."""
+    v = np.asarray(points, dtype=float)
+    dim = v.shape[0]
+    size = float(np.max(np.linalg.norm(v, axis=0)))
+    if dim == 2:
+        a, b = v, np.roll(v, -1, axis=1)
+        n = np.array([b[1] - a[1], a[0] - b[0]])  # right-hand normals of the edges
+    else:
+        t = np.asarray(tris)
+        a, b, c = (v[:, t[:, k]] for k in range(3))
+        n = np.cross((b - a).T, (c - a).T).T
+    length = np.linalg.norm(n, axis=0)
+    keep = length > 1e-12 * size * size
+    n, a = n[:, keep] / length[keep], a[:, keep]
+    off = np.einsum("ij,ij->j", n, a)
+    flip = off < 0.0  # outward: the centre (the origin, inside a convex body) behind every face
+    n[:, flip], off[flip] = -n[:, flip], -off[flip]
+    faces = []
+    for k in range(n.shape[1]):
+        if not any(np.allclose(n[:, k], m, atol=1e-9) and abs(off[k] - q) <= 1e-9 * size for m, q in faces):
+            faces.append((n[:, k], float(off[k])))
+    N = np.array([m for m, _ in faces])
+    o = np.array([q for _, q in faces])
+    if np.any(N @ v - o[:, None] > 1e-9 * size):
+        return None
+    return N, o
 
 
 def fixed_blocks(case):
