@@ -690,3 +690,37 @@ def test_a_convex_polygon_case_body_holds_others_out_and_a_concave_one_does_not(
         case = validate(dict(base, polygon=[{"name": "b", "points": pts, "closed": True, "floating": {"mass": 2.0}}]))
         body = body_of("polygon[0]", case["polygon"][0], 2)
         assert (body.faces() is not None) == convex
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.5])
+def test_a_box_on_a_fixed_wedge_slides_off_or_stays_by_its_friction(mu):
+    """A fixed closed polygon (a wedge whose right face slopes at 0.3 rad) holds a floating box
+    out of it as the tank's faces do (``fixed_blocks``): the box, turned to lie flat on the
+    slope and released on it, slides down at g sin 0.3 frictionless (to 1e-9 of the exact
+    speed after 0.3 s) and stays with mu = 0.5 > tan 0.3; it never has a point inside the
+    wedge, nor turns."""
+    from wcsph.boundaries.floating import FloatingBody, fixed_blocks
+
+    theta = 0.3
+    case = validate({"dim": 2, "dp": 0.1, "time": {"end": 0.1}, "fluid": [{"min": [0.0, 0.0], "max": [0.5, 0.5]}],
+                     "tank": {"min": [0.0, 0.0], "max": [6.0, 3.0]},
+                     "polygon": [{"points": [[1.0, 0.0], [5.0, 0.0], [1.0, 4.0 * np.tan(theta)]], "closed": True}]})
+    blocks = fixed_blocks(case)
+    assert len(blocks) == 1 and len(blocks[0][1]) == 3
+    t = np.array([np.cos(theta), -np.sin(theta)])  # down the slope
+    n = np.array([np.sin(theta), np.cos(theta)])  # out of the slope
+    foot = np.array([1.0, 4.0 * np.tan(theta)]) + 1.5 * t
+    centre = foot + 0.1 * n
+    b = FloatingBody("box", 2, 2.0, centre, 2.0 * (0.2 ** 2 + 0.2 ** 2) / 12.0, friction=mu)
+    corners = centre[:, None] + np.array([[-0.1, 0.1, 0.1, -0.1], [-0.1, -0.1, 0.1, 0.1]])
+    b.meet(corners, [], blocks)
+    b.theta = -theta
+    for _ in range(300):
+        b.step(0.001, [0.0, 0.0], 0.0, [0.0, -9.81])
+        x = b.c[:, None] + _rot(b.theta) @ b.points
+        N, o = blocks[0]
+        assert not np.any(np.all(o[:, None] - N @ x > 1e-12, axis=0))
+    speed = float(b.u @ t)
+    exact = max(0.0, 9.81 * (np.sin(theta) - mu * np.cos(theta))) * 0.3
+    assert speed == pytest.approx(exact, abs=1e-9 * max(exact, 1.0))
+    assert abs(float(b.u @ n)) < 1e-9 and abs(b.omega) < 1e-9

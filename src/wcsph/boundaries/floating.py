@@ -55,9 +55,10 @@ frictionless unless ``friction`` gives Coulomb's coefficient mu: then impulses a
 at the same points also take out the sliding speed there, each at most mu times that point's
 normal impulse, so that a body on a slope stays where tan(slope) <= mu and slides with
 g (sin - mu cos) where it is steeper (with another body, the lesser of the two mu). The
-same holds a body out of the case's fixed obstacle boxes: wall points of the body inside one
-move the body out by the least push along a free axis, and impulses through them take its
-velocity into the box out, turning it as at the tank's faces.
+same holds a body out of the case's fixed obstacle boxes and closed convex polygons (their
+faces as half-spaces, ``fixed_blocks``): wall points of the body inside one move the body out
+through the face that needs the least push (along its normal, on the free axes), and impulses
+through them take its velocity into the obstacle out, turning it as at the tank's faces.
 Two floating bodies (``collide``) are parted the same way in the frame of the one entered,
 which must be convex (a box, a convex polygon, a closed convex wall mesh: its faces as
 half-spaces), the push out through its nearest face shared in inverse proportion to their
@@ -180,17 +181,20 @@ class FloatingBody:
         self.tensions = [0.0] * len(self.springs)  # at the last step, for probes.csv
         self.points = np.zeros((dim, 0))  # the wall points about c0 (contact), set by ``meet``
         self.planes = []  # (n, o): the tank's faces, inside where n . x >= o
-        self.blocks = []  # (lo, hi): fixed obstacle boxes the body stays out of
+        self.blocks = []  # (N, o): fixed convex obstacles the body stays out of, inside where N x < o
         self.box = None  # (lo, hi) about c0 in the body's frame, when the body is an obstacle box
         self.hull = None  # (N (m, dim), o (m)): a convex body's faces about c0, inside where N y < o
 
     def meet(self, points, planes, blocks=()):
         """The body's wall points (dim, K) at rest, the faces it must stay inside of
-        ((unit normal, offset): inside where n . x >= offset) and the fixed boxes it must stay
-        out of ((lo, hi): the case's fixed obstacle boxes)."""
+        ((unit normal, offset): inside where n . x >= offset) and the fixed convex obstacles it
+        must stay out of (``fixed_blocks``: (N, o) half-spaces, inside where N x < o, or a box
+        as (lo, hi))."""
         self.points = np.asarray(points, dtype=float) - self.c0[:, None]
         self.planes = [(np.asarray(n, dtype=float), float(o)) for n, o in planes]
-        self.blocks = [(np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)) for lo, hi in blocks]
+        self.blocks = [box_faces(*blk) if np.ndim(blk[0]) == 1 else (np.asarray(blk[0], dtype=float),
+                                                                      np.asarray(blk[1], dtype=float))
+                       for blk in blocks]
 
     def pose(self, t):
         """(d, R, u, omega, du, alpha): the centre's displacement from where it started, the
@@ -345,24 +349,33 @@ class FloatingBody:
         return self.free_t * n / self.mass, dw, arms
 
     def _leave_blocks(self):
-        """Out of each fixed box: when wall points of the body are inside one, the body is
-        moved out by the shortest push along a free axis that clears them all, and impulses
-        through the points that were inside take the velocity and acceleration into the box
-        out (rigid, inelastic, frictionless, turning the body, as at the tank's faces)."""
+        """Out of each fixed convex obstacle: when wall points of the body are inside one, the
+        body is moved out through the face that clears them all with the shortest push (along
+        that face's normal, on the free axes), and impulses along the normal through the
+        points that were inside take the velocity and acceleration into the obstacle out
+        (rigid, inelastic, turning the body, as at the tank's faces)."""
         R = self.R if self.dim == 3 else _rot2(self.theta)
-        for lo, hi in self.blocks:
+        for N, o in self.blocks:
             x = self.c[:, None] + R @ self.points
-            inside = np.all((x > lo[:, None]) & (x < hi[:, None]), axis=0)
+            depth = o[:, None] - N @ x  # (faces, points): how far inside each face
+            inside = np.all(depth > 0.0, axis=0)
             if not inside.any():
                 continue
-            best = _least_push(x[:, inside], lo, hi, self.free_t)
+            best = None
+            for f, need in enumerate(np.max(depth[:, inside], axis=1)):
+                m = N[f] * self.free_t
+                along = float(m @ N[f])
+                if not along > 0.0:
+                    continue  # this face's normal is held
+                shift = need / along * m
+                length = float(np.sqrt(shift @ shift))
+                if best is None or length < best[0]:
+                    best = (length, shift, N[f])
             if best is None:
-                continue  # held on every axis: nothing can move it out
-            need, a, sign = best
-            n = np.zeros(self.dim)
-            n[a] = sign
+                continue  # held on every free direction: nothing can move it out
+            _, shift, n = best
             r = _extremes(x[:, inside] - self.c[:, None], n)  # the contact points about the centre
-            self.c = self.c + need * n
+            self.c = self.c + shift
             self._impulses(n, r)
 
     def faces(self):
@@ -374,11 +387,7 @@ class FloatingBody:
             return self.hull
         if self.box is None:
             return None
-        lo, hi = self.box
-        eye = np.eye(self.dim)
-        N = np.array([sign * eye[a] for a in range(self.dim) for sign in (1.0, -1.0)])
-        o = np.array([v for a in range(self.dim) for v in (hi[a], -lo[a])])
-        return N, o
+        return box_faces(*self.box)
 
     def columns(self, name):
         """The probes.csv columns of this body's state."""
@@ -715,19 +724,6 @@ def tank_planes(tank, dim):
     return out
 
 
-def _least_push(y, lo, hi, free):
-    """(push, axis, sign) of the least move along an axis with ``free`` that takes the points
-    y (dim, K) out of the box [lo, hi] (all coordinates in the box's frame); None if no axis."""
-    best = None
-    for a in range(y.shape[0]):
-        if not free[a]:
-            continue
-        for sign, need in ((1.0, float(np.max(hi[a] - y[a]))), (-1.0, float(np.max(y[a] - lo[a])))):
-            if best is None or need < best[0]:
-                best = (need, a, sign)
-    return best
-
-
 def collide(a, b):
     """Two floating bodies kept apart, each convex one (a box, a convex polygon or mesh:
     ``faces``) holding the other's wall points out of it: the points of one inside the other
@@ -766,6 +762,15 @@ def collide(a, b):
         contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])], min(p.friction, q.friction))
         touched = True
     return touched
+
+
+def box_faces(lo, hi):
+    """(N, o) of the box [lo, hi]: the faces +x, -x, +y, ... (inside where N x < o)."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    eye = np.eye(lo.size)
+    N = np.array([sign * eye[a] for a in range(lo.size) for sign in (1.0, -1.0)])
+    o = np.array([v for a in range(lo.size) for v in (hi[a], -lo[a])])
+    return N, o
 
 
 def _size(N, o):
@@ -807,7 +812,19 @@ def convex_faces(points, tris=None):
 
 
 def fixed_blocks(case):
-    """(lo, hi) of the case's obstacle boxes that neither float nor move: the boxes a floating
-    body stays out of."""
-    return [(b["min"], b["max"]) for b in case["obstacle"]
-            if b.get("min") is not None and b.get("floating") is None and b.get("motion") is None]
+    """The convex obstacles a floating body stays out of, as (N, o) half-spaces (inside where
+    N x < o): the case's obstacle boxes and closed convex polygons that neither float nor move
+    (a concave polygon, a wall mesh or file: through the fluid alone)."""
+    out = []
+    for b in case["obstacle"]:
+        if b.get("min") is not None and b.get("floating") is None and b.get("motion") is None:
+            out.append(box_faces(b["min"], b["max"]))
+    for b in case.get("polygon", []):
+        if b["closed"] and b.get("floating") is None and b.get("motion") is None:
+            pts = np.asarray(b["points"], dtype=float).T
+            centre = pts.mean(axis=1)
+            faces = convex_faces(pts - centre[:, None])
+            if faces is not None:
+                N, o = faces
+                out.append((N, o + N @ centre))
+    return out
