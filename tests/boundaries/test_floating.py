@@ -9,7 +9,7 @@ import pytest
 import wcsph
 from wcsph.case.config import validate
 from wcsph.errors import CaseError
-from wcsph.boundaries.floating import box_properties, mesh_properties, polygon_properties
+from wcsph.boundaries.floating import box_faces, box_properties, mesh_properties, polygon_properties
 
 
 def test_mass_properties_of_boxes_polygons_and_meshes():
@@ -324,7 +324,7 @@ def test_a_body_thrown_at_a_fixed_block_never_enters_it():
     b = _body(2)
     pts = np.array([[0.4, 0.5, 0.6, 0.6, 0.6, 0.5, 0.4, 0.4], [0.4, 0.4, 0.4, 0.5, 0.6, 0.6, 0.6, 0.5]])
     lo, hi = np.array([0.8, 0.0]), np.array([1.2, 1.0])
-    b.meet(pts, [], [(lo, hi)])
+    b.meet(pts, [], [box_faces(lo, hi)])
     b.u = np.array([3.0, 0.5])
     b.omega = 4.0
     for _ in range(400):
@@ -492,7 +492,7 @@ def test_a_tilted_box_dropped_on_the_floor_falls_flat(dim, surface):
     if surface == "floor":
         b.meet(corners, tank_planes({"min": [0.0] * dim, "max": [1.0] * dim, "open_top": True}, dim))
     else:  # a fixed obstacle box below the body, its top at the same height as the floor
-        b.meet(corners, [], [([-1.0] * dim, [2.0] * (dim - 1) + [0.0])])
+        b.meet(corners, [], [box_faces([-1.0] * dim, [2.0] * (dim - 1) + [0.0])])
     a = 0.4
     if dim == 2:
         b.theta = a
@@ -539,7 +539,7 @@ def test_a_box_on_a_slope_sticks_or_slides_as_coulomb_says(dim, mu, surface):
     if surface == "floor":
         b.meet(corners, tank_planes({"min": [-5.0] * (dim - 1) + [0.0], "max": [5.0] * dim, "open_top": True}, dim))
     else:
-        b.meet(corners, [], [([-5.0] * dim, [5.0] * (dim - 1) + [0.0])])
+        b.meet(corners, [], [box_faces([-5.0] * dim, [5.0] * (dim - 1) + [0.0])])
     theta, dt, steps = 0.3, 1e-3, 500
     zero_t = 0.0 if dim == 2 else np.zeros(3)
     for _ in range(steps):

@@ -188,13 +188,11 @@ class FloatingBody:
     def meet(self, points, planes, blocks=()):
         """The body's wall points (dim, K) at rest, the faces it must stay inside of
         ((unit normal, offset): inside where n . x >= offset) and the fixed convex obstacles it
-        must stay out of (``fixed_blocks``: (N, o) half-spaces, inside where N x < o, or a box
-        as (lo, hi))."""
+        must stay out of (``fixed_blocks``, ``box_faces``: (N, o) half-spaces, inside where
+        N x < o)."""
         self.points = np.asarray(points, dtype=float) - self.c0[:, None]
         self.planes = [(np.asarray(n, dtype=float), float(o)) for n, o in planes]
-        self.blocks = [box_faces(*blk) if np.ndim(blk[0]) == 1 else (np.asarray(blk[0], dtype=float),
-                                                                      np.asarray(blk[1], dtype=float))
-                       for blk in blocks]
+        self.blocks = [(np.asarray(N, dtype=float), np.asarray(o, dtype=float)) for N, o in blocks]
 
     def pose(self, t):
         """(d, R, u, omega, du, alpha): the centre's displacement from where it started, the
@@ -367,10 +365,9 @@ class FloatingBody:
                 along = float(m @ N[f])
                 if not along > 0.0:
                     continue  # this face's normal is held
-                shift = need / along * m
-                length = float(np.sqrt(shift @ shift))
+                length = need / along * math.sqrt(float(m @ m))  # need itself for a free axis's face
                 if best is None or length < best[0]:
-                    best = (length, shift, N[f])
+                    best = (length, need / along * m, N[f])
             if best is None:
                 continue  # held on every free direction: nothing can move it out
             _, shift, n = best
@@ -493,26 +490,45 @@ def contact_impulses(sides, friction=0.0):
     along n on each body (equal and opposite on two, their normals opposite). With A the
     speed at which point k parts (along n, summed over the sides) per unit impulse at point l,
     and s_k the speed now, the impulses solve s + A J >= 0, J >= 0, J_k (s + A J)_k = 0 by
-    projected Gauss-Seidel (sequential impulses, each point's total kept non-negative, swept
-    until no point's speed changes by more than ``CONTACT_TOL``); the velocities, then the
+    projected Gauss-Seidel (``_projected_gauss_seidel``); the velocities, then the
     accelerations likewise. A landing on a corner turns the body, one on a face stops it
-    (rigid, inelastic; with two bodies momentum and angular momentum kept). With ``friction``
-    mu > 0 the sliding at each point is taken out too, within Coulomb's bound
-    (``_friction_impulses``)."""
-    if friction > 0.0:
-        _friction_impulses(sides, friction)
-        return
-    resp = [body._responses(n, r) for body, n, r in sides]
-    A = sum(float(n @ du) + (np.outer(arms, dw) if arms.ndim == 1 else arms @ dw.T)
-            for (_, n, _), (du, dw, arms) in zip(sides, resp))
-    A = A.tolist()
-    for a, b in (("u", "omega"), ("du", "alpha")):
-        speed = sum(float(getattr(body, a) @ n) + (arms * getattr(body, b) if arms.ndim == 1 else arms @ getattr(body, b))
-                    for (body, n, _), (du, dw, arms) in zip(sides, resp))
-        J = np.array(_projected_gauss_seidel(A, speed.tolist()))
-        for (body, _, _), (du, dw, arms) in zip(sides, resp):
-            setattr(body, a, getattr(body, a) + J.sum() * du)
-            setattr(body, b, getattr(body, b) + J @ dw)
+    (rigid, inelastic; with two bodies momentum and angular momentum kept).
+
+    With ``friction`` mu > 0 each point also takes impulses J_t along the face (one direction
+    in 2D, two in 3D) with |J_t| <= mu J_n, which take its sliding speed out within that bound
+    (a sticking point stops sliding, a slipping one is slowed by mu J_n): rows along the face
+    join the normal ones in A (a normal impulse through a point off the centre turns the body
+    and moves the points along the face, and the other way round)."""
+    n0 = sides[0][1]
+    dirs = [n0] + (_tangents(n0) if friction > 0.0 else [])  # the normal, then along the face
+    K = sides[0][2].shape[1]
+    nd = len(dirs)
+    resp = []  # per side, per direction: (du, dw, arms) of impulses along that side's direction
+    for body, n, r in sides:
+        sign = 1.0 if n @ n0 > 0.0 else -1.0  # the other body's normal is the first's, negated
+        resp.append((sign, [body._responses(sign * d, r) for d in dirs]))
+    A = np.zeros((nd * K, nd * K))
+    for sign, rs in resp:
+        for a, d in enumerate(dirs):
+            arms = rs[a][2]
+            for b in range(nd):
+                du, dw, _ = rs[b]
+                A[a * K:(a + 1) * K, b * K:(b + 1) * K] += float(sign * d @ du) + (
+                    np.outer(arms, dw) if arms.ndim == 1 else arms @ dw.T)
+    for va, wa in (("u", "omega"), ("du", "alpha")):
+        speed = np.zeros(nd * K)
+        for (body, _, _), (sign, rs) in zip(sides, resp):
+            w = getattr(body, wa)
+            for a, d in enumerate(dirs):
+                arms = rs[a][2]
+                speed[a * K:(a + 1) * K] += float(getattr(body, va) @ (sign * d)) + (arms * w if arms.ndim == 1 else arms @ w)
+        J = _projected_gauss_seidel(A, speed, K, nd, friction)
+        for (body, _, _), (sign, rs) in zip(sides, resp):
+            for a in range(nd):
+                du, dw, _ = rs[a]
+                Ja = J[a * K:(a + 1) * K]
+                setattr(body, va, getattr(body, va) + Ja.sum() * du)
+                setattr(body, wa, getattr(body, wa) + Ja @ dw)
 
 
 def _tangents(n):
@@ -524,54 +540,13 @@ def _tangents(n):
     return [t1, np.cross(n, t1)]
 
 
-def _friction_impulses(sides, mu):
-    """``contact_impulses`` with Coulomb's friction: at each of the K contact points an
-    impulse J_n >= 0 along the normal and J_t along the face (one direction in 2D, two in 3D)
-    with |J_t| <= mu J_n, which together take out the speed of approach and, within that
-    bound, the sliding speed there (a sticking point stops sliding, a slipping one is slowed
-    by mu J_n). The rows' coupling A (the speed of row i per unit impulse of row j, summed
-    over the sides: a normal impulse through a point off the centre turns the body and moves
-    the others' points along the face) is solved by projected Gauss-Seidel as the normal
-    rows alone are, each sweep clamping a point's tangential impulse to its disk of radius
-    mu J_n; the velocities, then the accelerations likewise."""
-    n0 = sides[0][1]
-    dirs = [n0] + _tangents(n0)  # row families: the normal, then the directions along the face
-    K = sides[0][2].shape[1]
-    nd = len(dirs)
-    resp = []  # per side, per direction: (du, dw, arms) of impulses along that side's direction
-    for body, n, r in sides:
-        sign = float(n @ n0)  # +1 for the first side, -1 for the other body's
-        resp.append((sign, [body._responses(sign * d, r) for d in dirs]))
-    A = np.zeros((nd * K, nd * K))
-    for (body, _, _), (sign, rs) in zip(sides, resp):
-        for a, d in enumerate(dirs):
-            arms_a = rs[a][2]
-            for b in range(nd):
-                du, dw, _ = rs[b]
-                block = float(sign * d @ du) + (np.outer(arms_a, dw) if arms_a.ndim == 1 else arms_a @ dw.T)
-                A[a * K:(a + 1) * K, b * K:(b + 1) * K] += block
-    for va, wa in (("u", "omega"), ("du", "alpha")):
-        speed = np.zeros(nd * K)
-        for (body, _, _), (sign, rs) in zip(sides, resp):
-            for a, d in enumerate(dirs):
-                arms = rs[a][2]
-                w = getattr(body, wa)
-                speed[a * K:(a + 1) * K] += float(getattr(body, va) @ (sign * d)) + (arms * w if arms.ndim == 1 else arms @ w)
-        J = _pgs_with_friction(A, speed, K, nd, mu)
-        for (body, _, _), (sign, rs) in zip(sides, resp):
-            for a in range(nd):
-                du, dw, _ = rs[a]
-                Ja = J[a * K:(a + 1) * K]
-                setattr(body, va, getattr(body, va) + Ja.sum() * du)
-                setattr(body, wa, getattr(body, wa) + Ja @ dw)
-
-
-def _pgs_with_friction(A, s, K, nd, mu):
+def _projected_gauss_seidel(A, s, K, nd=1, mu=0.0):
     """J (nd K: the K normal impulses, then K per direction along the face) with the normal
-    rows' complementarity (J_n >= 0, s_n + (A J)_n >= 0, one of them zero), each point's
-    impulse along the face within |J_t| <= mu J_n and otherwise taking its sliding speed to
-    zero; projected Gauss-Seidel, swept until no row's speed changes by more than
-    ``CONTACT_TOL``."""
+    rows' complementarity (J_n >= 0, s_n + (A J)_n >= 0, one of them zero) and each point's
+    impulse along the face within |J_t| <= mu J_n, otherwise taking its sliding speed to zero:
+    sequential impulses, each sweep clamping a point's normal impulse at zero and its
+    impulse along the face to its disk of radius mu J_n, swept until no row's impulse changes
+    the speeds by more than ``CONTACT_TOL`` over a sweep. Plain lists: K is a few points."""
     R = nd * K
     cols = A.T.tolist()  # cols[i][m]: row m's speed per unit impulse of row i
     s, J = [float(v) for v in s], [0.0] * R
@@ -592,6 +567,8 @@ def _pgs_with_friction(A, s, K, nd, mu):
                     col = cols[i]
                     for q in range(R):
                         s[q] += dj * col[q]
+            if nd == 1:
+                continue
             size = math.sqrt(sum(J[i] * J[i] for i in rows[1:]))
             bound = mu * J[k]
             if size > bound:  # sliding: the impulse along the face at Coulomb's bound
@@ -601,30 +578,9 @@ def _pgs_with_friction(A, s, K, nd, mu):
                     col = cols[i]
                     for q in range(R):
                         s[q] += dj * col[q]
-        if max(abs(J[i] - before[i]) * diag[i] for i in range(R)) <= CONTACT_TOL:  # no row's speed changed
+        if max(abs(J[i] - before[i]) * diag[i] for i in range(R)) <= CONTACT_TOL:
             break
     return np.array(J)
-
-
-def _projected_gauss_seidel(A, s):
-    """J >= 0 with s + A J >= 0 and J_k (s + A J)_k = 0 (A: lists of floats, K x K)."""
-    K = len(s)
-    s, J = list(s), [0.0] * K
-    for _ in range(CONTACT_SWEEPS):
-        moved = 0.0
-        for k in range(K):
-            if A[k][k] <= 0.0:
-                continue  # an impulse there moves nothing
-            new = max(J[k] - s[k] / A[k][k], 0.0)
-            dj = new - J[k]
-            if dj != 0.0:
-                J[k] = new
-                for m in range(K):
-                    s[m] += dj * A[m][k]
-                moved = max(moved, abs(dj) * A[k][k])
-        if moved <= CONTACT_TOL:
-            break
-    return J
 
 
 def _parallel_axes(mass, r):
