@@ -501,9 +501,7 @@ def _flags(ops):
 def _mask(owned):
     """The columns to reduce over as a device array (a placeholder when all are)."""
     if owned is None:
-        if "unmasked" not in _OPS:
-            _OPS["unmasked"] = cuda.to_device(np.zeros(1, dtype=np.int8))
-        return _OPS["unmasked"]
+        return _unused(np.int8)
     return owned if hasattr(owned, "copy_to_host") else cuda.to_device(np.ascontiguousarray(owned))
 
 
