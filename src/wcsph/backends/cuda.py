@@ -88,20 +88,45 @@ def _cell_ids_counted(x, origin, inv_cell, nx, ny, nz, ncells, k, drop, use_drop
         _count(c, count, sums, chunk)
 
 
+@cuda.jit(device=True)
+def _place(k, cell, start, raw, perm):
+    """(d, j): the particle j that the scatter put at position k of its cell's range, and its
+    place d there in the stable order (how many of the range's indices are smaller than j:
+    the CPU's argsort within a cell), written to perm[d]."""
+    j = raw[k]
+    c = cell[j]
+    d = start[c]
+    for m in range(start[c], start[c + 1]):
+        if raw[m] < j:
+            d += 1
+    perm[d] = j
+    return d, j
+
+
 @cuda.jit
-def _gather_fields(groups, perm, n):
-    """dst[c, k] = src[c, perm[k]] for every (components, particles) field pair of
-    ``groups``: a tuple, one entry per dtype, of (sources, destinations), each a tuple of
-    arrays of that dtype (1D fields as (1, n) views). One launch gathers every field."""
+def _place_cells(cell, start, raw, perm):
+    """perm = the stable order of the scattered ``raw`` (``_place``), one thread per particle."""
     k = cuda.grid(1)
-    if k < n:
-        j = perm[k]
-        for g in literal_unroll(groups):
-            for f in range(len(g[0])):
-                src = g[0][f]
-                dst = g[1][f]
-                for c in range(src.shape[0]):
-                    dst[c, k] = src[c, j]
+    if k < raw.size:
+        _place(k, cell, start, raw, perm)
+
+
+@cuda.jit
+def _place_fields(cell, start, raw, perm, groups, n_in):
+    """As ``_place_cells``, and each particle placed before ``n_in`` gathered there: dst[c, d] =
+    src[c, j] for every (components, particles) field pair of ``groups``, a tuple, one entry
+    per dtype, of (sources, destinations), each a tuple of arrays of that dtype (1D fields as
+    (1, n) views). One launch orders the cells and moves every field."""
+    k = cuda.grid(1)
+    if k < raw.size:
+        d, j = _place(k, cell, start, raw, perm)
+        if d < n_in:
+            for g in literal_unroll(groups):
+                for f in range(len(g[0])):
+                    src = g[0][f]
+                    dst = g[1][f]
+                    for c in range(src.shape[0]):
+                        dst[c, d] = src[c, j]
 
 
 @cuda.jit
@@ -198,21 +223,6 @@ def _scatter_cells(cell, fill, perm):
         perm[cuda.atomic.add(fill, cell[i], 1)] = i
 
 
-@cuda.jit
-def _order_cells(start, perm):
-    """Each cell's particle indices in increasing order (insertion sort: a cell holds tens)."""
-    c = cuda.grid(1)
-    if c < start.size - 1:
-        lo, hi = start[c], start[c + 1]
-        for k in range(lo + 1, hi):
-            v = perm[k]
-            m = k - 1
-            while m >= lo and perm[m] > v:
-                perm[m + 1] = perm[m]
-                m -= 1
-            perm[m + 1] = v
-
-
 _SCRATCH = {}
 
 
@@ -245,13 +255,14 @@ def _sort_buffers(work, ncells):
     return _buffer(work, "count", m), _buffer(work, "sums", math.ceil(m / chunk)), chunk, _buffer(work, "ticket", 1)
 
 
-def _counting_sort(cell, ncells, work, counted=False):
-    """(perm, start) for cell ids in [0, ncells] (ncells: outside the grid): perm the stable
-    order by cell (new position -> old index), start[c] the first position of cell c,
-    start[ncells + 1] = n. All on the device, in the buffers of the dict ``work`` (one per
-    particle set: its ``start`` and ``_perm`` are these). ``counted``: the histogram and its
-    chunk sums (``_sort_buffers``) are already made (``_cell_ids_counted`` or the check); they
-    are zero after the call."""
+def _scan_scatter(cell, ncells, work, counted=False):
+    """(raw, start) for cell ids in [0, ncells] (ncells: outside the grid): start[c] the first
+    position of cell c, start[ncells + 1] = n, and raw each cell's particle indices in its
+    range in the order the scatter's atomics gave them (``_place_cells`` or ``_place_fields``
+    put them in the stable order). All on the device, in the buffers of the dict ``work`` (one
+    per particle set: its ``start`` and ``_perm`` are these). ``counted``: the histogram and
+    its chunk sums (``_sort_buffers``) are already made (``_cell_ids_counted`` or the check);
+    they are zero after the call."""
     n = cell.size
     count, sums, chunk, ticket = _sort_buffers(work, ncells)
     if n and not counted:
@@ -259,10 +270,19 @@ def _counting_sort(cell, ncells, work, counted=False):
     start = _buffer(work, "start", ncells + 2)
     fill = _buffer(work, "fill", ncells + 2)
     _scan_chunks[_blocks(sums.size), THREADS](count, chunk, sums, start, fill, ticket)
-    perm = _buffer(work, "perm", n)
+    raw = _buffer(work, "raw", n)
     if n:
-        _scatter_cells[_blocks(n), THREADS](cell, fill, perm)
-        _order_cells[_blocks(ncells + 1), THREADS](start, perm)
+        _scatter_cells[_blocks(n), THREADS](cell, fill, raw)
+    return raw, start
+
+
+def _counting_sort(cell, ncells, work, counted=False):
+    """(perm, start): perm the stable order by cell (new position -> old index), start as
+    ``_scan_scatter``'s."""
+    raw, start = _scan_scatter(cell, ncells, work, counted)
+    perm = _buffer(work, "perm", cell.size)
+    if cell.size:
+        _place_cells[_blocks(cell.size), THREADS](cell, start, raw, perm)
     return perm, start
 
 
@@ -608,7 +628,9 @@ class CudaBackend:
                 _cell_ids_counted[_blocks(n), THREADS](x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k,
                                                        _unused(np.uint8) if drop is None else drop, drop is not None,
                                                        pset["cell"], count, sums, chunk)
-        perm, start_d = _counting_sort(pset["cell"], g.ncells, work, counted=True)
+        cell = pset["cell"]
+        raw, start_d = _scan_scatter(cell, g.ncells, work, counted=True)
+        perm = _buffer(work, "perm", n)
         stays = pset.__dict__.get("_stays")
         pset.__dict__["_stays"] = None
         pset.__dict__["_grid"] = grid
@@ -623,7 +645,7 @@ class CudaBackend:
         scratch = [k for k in pset.per_particle() if k not in fields]
         # the first n_in of the new order (the dropped ones are sorted last), gathered into
         # the set's spare copy of each field, which then swaps with it (ping-pong: no
-        # allocation while the count holds)
+        # allocation while the count holds), in the launch that puts each cell in order
         spare = pset.__dict__.setdefault("_spare", {})
         groups = {}  # (sources, destinations) by dtype, as (components, particles) views
         for k in fields:
@@ -639,7 +661,10 @@ class CudaBackend:
             pset[k] = out
             spare[k] = a
         if n_in:
-            _gather_fields[_blocks(n_in), THREADS](tuple((tuple(a), tuple(b)) for a, b in groups.values()), perm, n_in)
+            _place_fields[_blocks(n), THREADS](cell, start_d, raw, perm,
+                                               tuple((tuple(a), tuple(b)) for a, b in groups.values()), n_in)
+        elif n:
+            _place_cells[_blocks(n), THREADS](cell, start_d, raw, perm)
         if dropped:
             for k in scratch:  # written before they are read: only their size matters
                 pset[k] = cuda.device_array(pset[k].shape[:-1] + (n_in,), dtype=pset[k].dtype)
