@@ -112,10 +112,7 @@ def _in_polygon(x, pts, margin):
     crosses = ((a[:, 1] > py) != (b[:, 1] > py)) & (
         px < a[:, 0] + (py - a[:, 1]) * (b[:, 0] - a[:, 0]) / np.where(b[:, 1] != a[:, 1], b[:, 1] - a[:, 1], 1.0))
     inside = crosses.sum(axis=1) % 2 == 1
-    ab = b - a
-    t = np.clip(((px - a[:, 0]) * ab[:, 0] + (py - a[:, 1]) * ab[:, 1]) / np.maximum((ab ** 2).sum(axis=1), 1e-300), 0, 1)
-    d2 = (px - a[:, 0] - t * ab[:, 0]) ** 2 + (py - a[:, 1] - t * ab[:, 1]) ** 2
-    return inside | (d2.min(axis=1) < margin * margin)
+    return inside | (_outline_distance(x, pts) < margin) if margin > 0 else inside
 
 
 def obstacle_particles(box, dp, layers):
@@ -124,6 +121,31 @@ def obstacle_particles(box, dp, layers):
     hi = np.asarray(box["max"], dtype=float)
     pts = lattice(lo, hi, dp)
     return pts[:, ~_inside(pts, lo + layers * dp, hi - layers * dp)]
+
+
+def polygon_particles(points, dp, layers, phase):
+    """Wall particles of a closed polygon: the points of the lattice of phase ``phase`` (the
+    fluid's) within ``layers`` dp of its outline on its solid side. The fluid is on the left
+    of the direction of travel, so the solid side is the inside of a clockwise outline (a
+    body) and the outside of a counter-clockwise one (a container)."""
+    pts = np.asarray(points, dtype=float)
+    t = layers * dp
+    phase = np.asarray(phase, dtype=float)
+    lo = phase + dp * np.floor((pts.min(axis=0) - t - phase) / dp)
+    hi = phase + dp * np.ceil((pts.max(axis=0) + t - phase) / dp)
+    x = lattice(lo, hi, dp)
+    inside = _in_polygon(x, pts, 0.0)
+    clockwise = np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1]) < 0
+    return x[:, (inside if clockwise else ~inside) & (_outline_distance(x, pts) < t)]
+
+
+def _outline_distance(x, pts):
+    """The distance of each point of x (2, N) to the closed outline ``pts`` (M, 2)."""
+    a, b = pts, np.roll(pts, -1, axis=0)
+    px, py = x[0][:, None], x[1][:, None]
+    ab = b - a
+    t = np.clip(((px - a[:, 0]) * ab[:, 0] + (py - a[:, 1]) * ab[:, 1]) / np.maximum((ab ** 2).sum(axis=1), 1e-300), 0, 1)
+    return np.sqrt(((px - a[:, 0] - t * ab[:, 0]) ** 2 + (py - a[:, 1] - t * ab[:, 1]) ** 2).min(axis=1))
 
 
 def _tiles(lo, hi, size):
@@ -327,15 +349,21 @@ def build(case):
         x, n, size, body = boundary_elements(case, element_size(case))
         wall_set = {"x": x, "n": n, "elementSize": size, "body": body}
     else:
-        if case["polygon"]:
-            raise CaseError(f"{src}: polygon: polygon walls need boundary elements (model.BCType = "
-                            "\"BIConservative_numeric\" or \"BIConsistent_numeric\", or model.name = \"bi\")")
+        for k, poly in enumerate(case["polygon"]):
+            if not poly["closed"]:
+                raise CaseError(f"{src}: polygon[{k}].closed: an open polygon has no solid side for wall particles; "
+                                "close it, or use boundary elements (model.BCType = \"BIConsistent_numeric\", or "
+                                "model.name = \"bi\")")
         layers = wall_layers(case)
         parts = []
         if case["tank"] is not None:
             parts.append(tank_particles(case["tank"], dp, layers, periodic_axes(case)))
         for box in case["obstacle"]:
             parts.append(obstacle_particles(box, dp, layers))
+        phase = np.asarray(case["fluid"][0]["min"], dtype=float) if case["fluid"] and case["fluid"][0]["min"] is not None \
+            else np.zeros(dim)
+        for poly in case["polygon"]:
+            parts.append(polygon_particles(poly["points"], dp, layers, phase))
         for k, w in enumerate(case["walls"]):
             parts.append(_file_particles(case, k, w, dp, layers))
         wall_set = {"x": np.concatenate(parts, axis=1) if parts else np.zeros((dim, 0)),
