@@ -233,6 +233,20 @@ def _make_map_loop(fn):
     return call
 
 
+def _make_fused_map_loop(fn, then):
+    @njit(parallel=True, fastmath=True, cache=True)
+    def run(I, P, J):
+        for i in prange(I.x.shape[1]):
+            fn(i, I, P)
+            then(i, J, P, I.rho[i])
+
+    def call(I, P, J):
+        with _threads_for(I.x.shape[1]):
+            run(I, P, J)
+
+    return call
+
+
 #: ``owned`` of a process that holds every particle it reduces over (no ghost copies)
 EVERY = np.zeros(0, dtype=np.uint8)
 
@@ -292,8 +306,13 @@ class CpuBackend:
         with _threads_for(pset.n):
             _wrap(x, lo.astype(dt), length.astype(dt), inv, origin, grid.reach, real, axes)
 
-    def make_map(self, fn):
-        return _make_map_loop(fn)
+    def make_map(self, fn, then=None):
+        """A per-particle map fn(i, I, P), called as map(I, P). With ``then``, one loop also
+        runs then(i, J, P, rho) for each particle after fn, J another view of the same
+        particles and rho the density fn left in I (read through I: a compiler that takes
+        two views for two arrays may not reorder it before fn's write), called as
+        map(I, P, J)."""
+        return _make_map_loop(fn) if then is None else _make_fused_map_loop(fn, then)
 
     def make_reduce(self, fn):
         """A per-particle function returning (a, b, c) reduced to (sum a, sum b, max c), over

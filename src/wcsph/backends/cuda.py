@@ -387,6 +387,23 @@ def _make_map_kernel(fn):
     return launch
 
 
+def _make_fused_map_kernel(fn, then):
+    @cuda.jit
+    def run(I, P, J):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            fn(i, I, P)
+            then(i, J, P, I.rho[i])
+
+    def launch(I, P, J):
+        n = I.x.shape[1]
+        if n:
+            run[_blocks(n), THREADS](I, P, J)
+
+    launch.kernel = run
+    return launch
+
+
 def _make_reduce_kernel(fn):
     @cuda.jit
     def run(I, P, out):
@@ -600,8 +617,8 @@ class CudaBackend:
                                          cuda.to_device(inv), cuda.to_device(origin), grid.reach,
                                          cuda.to_device(real), cuda.to_device(axes))
 
-    def make_map(self, fn):
-        return _make_map_kernel(fn)
+    def make_map(self, fn, then=None):
+        return _make_map_kernel(fn) if then is None else _make_fused_map_kernel(fn, then)
 
     def make_reduce(self, fn):
         return _make_reduce_kernel(fn)

@@ -144,8 +144,8 @@ def _stores(ctx, eos, continuity, consistent, needs_pr, corrected, sound):
         if dim == 3:
             I.dvdt[2, i] = acc[4] * k + acc[7] * ka + P.gz
 
-    return dict(initialize=initialize, init_scalar=init_scalar, store_density=store_density, init9=init9,
-                finalize=finalize)
+    return dict(initialize=initialize, state=state, init_scalar=init_scalar, store_density=store_density,
+                init9=init9, finalize=finalize)
 
 
 class WCSPH:
@@ -186,6 +186,10 @@ class WCSPH:
         def mk(*args, **kw):
             return backend.make_pass(*args, periodic=self.periodic, **kw)
 
+        #: p and V of particle i from a density, fn(i, I, P, rho) with I the ``refresh_view``:
+        #: what ``refresh`` does, for an integrator that runs it in its own map's loop with the
+        #: density it wrote (``Integrator.fuse_refresh``); None with summation density
+        self.refresh_fn = s["state"] if self.continuity else None
         if self.continuity:
             self.initialize_map = backend.make_map(s["initialize"])
             self.density_pass = None
@@ -343,15 +347,18 @@ class WCSPH:
         return self._placeholders[name]
 
     # ------------------------------------------------------------------ per evaluation
-    def derivatives(self, fluid, walls, P, G, halo=None):
+    def derivatives(self, fluid, walls, P, G, halo=None, refreshed=False):
         """Drho/Dt (continuity) or rho (summation), and Dv/Dt of every fluid particle.
         ``halo`` (a decomposed run's ``parallel.Halo``): after each pass whose output a later
         pass reads of a neighbour, the ghosts' (or the walls') copies of it are refreshed
-        from their owners, so that one kernel support of ghosts is enough."""
+        from their owners, so that one kernel support of ghosts is enough. ``refreshed``:
+        p and V are already those of the current rho (the integrator's last map ran
+        ``refresh_fn``), so the evaluation starts with the walls."""
         f = self.view(fluid, self.fluid_view)
         w = self.view(walls, self.wall_view)
         if self.continuity:
-            self.initialize_map(f, P)
+            if not refreshed:
+                self.initialize_map(f, P)
         else:
             self.density_pass(f, f, w, P, G)
             if halo is not None:
@@ -393,6 +400,10 @@ class WCSPH:
                 w = self._wall_passes(walls, f, self.view(walls, self.wall_load_view), P, G, loads=True)
                 self.load_pass(w, f, f, P, G)
         return walls["load"]
+
+    def refresh_view(self, fluid):
+        """The view ``refresh_fn`` takes of ``fluid``."""
+        return self.view(fluid, self.fluid_view)
 
     def refresh(self, fluid, P):
         """p and V from the current density (continuity density: the last evaluation may have

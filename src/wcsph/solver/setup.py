@@ -65,6 +65,8 @@ def build(case, backend, comm):
         par = _decomposition(case, comm, grid, be, np.concatenate([x, wall0["x"]], axis=1), opened)
         mine = par.split(x)
         x, v, rho, ids = x[:, mine], v[:, mine], rho[mine], ids[mine]
+    elif model.refresh_fn is not None:
+        integrator.fuse_refresh(model.refresh_fn)
     fluid = ParticleSet("fluid", dim, {"x": be.to_device(x.astype(dtype)), "v": be.to_device(v.astype(dtype))})
     for name, k, scratch in list(model.fluid_fields()) + list(integrator.fields):
         fluid.add(name, k, dtype, be, scratch=scratch)

@@ -66,16 +66,22 @@ class State:
         """The model parameters for a step of size ``dt`` from the current time."""
         return self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t), self.vmax)
 
-    def evaluate(self, P, at=0.0):
+    def evaluate(self, P, at=0.0, refreshed=False):
         """The model's derivatives at the current state (called by the integrator), which is
         that of the time t + ``at`` dt (dt = ``P.dt``): walls on prescribed paths are placed
-        there first; a decomposed run first refreshes its ghosts' state from their owners."""
+        there first; a decomposed run first refreshes its ghosts' state from their owners.
+        ``refreshed``: the integrator's map before this evaluation refreshed p and V
+        (``Integrator.fuse_refresh``)."""
         self.evaluations += 1
         if self.walls_at is not None:
             self.walls_at(self.t + at * float(P.dt))
         if self.par is not None:
             self.par.update(self.fluid, self.model.exchanged["state"])
-        self.model.derivatives(self.fluid, self.walls, P, self.G, self.halo)
+        self.model.derivatives(self.fluid, self.walls, P, self.G, self.halo, refreshed)
+
+    def refresh_view(self):
+        """The view of the fluid the model's ``refresh_fn`` takes."""
+        return self.model.refresh_view(self.fluid)
 
     def reduce(self, fn, view, P):
         """A reduction map of the integrator (``backend.make_reduce``): (sum, sum, max) over

@@ -70,8 +70,8 @@ def record(case, steps=2):
         return recorder("pass", lambda: CudaBackend().make_pass(dim, dtype, init, pair1, finish, pair2,
                                                                 periodic=periodic), launch)
 
-    def make_map(self, fn):
-        return recorder("map", lambda: CudaBackend().make_map(fn), originals["make_map"](self, fn))
+    def make_map(self, fn, then=None):
+        return recorder("map", lambda: CudaBackend().make_map(fn, then), originals["make_map"](self, fn, then))
 
     def make_reduce(self, fn):
         return recorder("reduce", lambda: CudaBackend().make_reduce(fn), originals["make_reduce"](self, fn))
