@@ -177,9 +177,10 @@ def test_midpoint_parameters_and_log(tmp_path):
     assert {"midpoint_iterations", "midpoint_residual", "midpoint_iterations_max"} <= set(probes[-1])
 
 
-@pytest.mark.parametrize("scheme", ["symplectic_verlet", "rk4"])
+@pytest.mark.parametrize("scheme", ["symplectic_verlet", "rk4", "midpoint"])
 def test_a_map_that_refreshes_p_and_v_in_its_loop_changes_no_number(scheme):
-    """The predictor (Verlet) and the save and stage maps (Runge-Kutta) run the model's
+    """The predictor (Verlet), the save and stage maps (Runge-Kutta) and the midpoint state
+    of each iteration (implicit midpoint) run the model's
     p and V from rho in their own loop, and the evaluation after them starts with the walls
     (one launch fewer on a GPU per map): bit-for-bit the numbers of the separate map. The
     refresh reads the density through the map's own view: read through the model's view of
@@ -193,7 +194,7 @@ def test_a_map_that_refreshes_p_and_v_in_its_loop_changes_no_number(scheme):
                          "tank": {"min": [0.0, 0.0], "max": [0.6, 0.5], "open_top": True},
                          "model": {"name": "bi", "BCType": "BIConsistent_numeric"}, "output": {"progress": False}})
         sim = wcsph.Simulation(case)
-        assert sorted(sim.integrator.fused) == ([0] if scheme == "symplectic_verlet" else [0, 1])
+        assert sorted(sim.integrator.fused) == {"symplectic_verlet": [0], "rk4": [0, 1], "midpoint": [2]}[scheme]
         if not fused:
             sim.integrator.fused = {}
         sim.run()

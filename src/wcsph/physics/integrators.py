@@ -572,6 +572,7 @@ class ImplicitMidpoint(Integrator):
     dissipation-free model the energy error stays bounded rather than drifting."""
     name, spec_name, ref = 'midpoint', 'MidpointScheme', 'Cercos-Pita et al. (2024), the WCSPH-BI spec'
     iterated = True
+    refreshing = (2,)  # the midpoint state, before each iteration's evaluation
 
     ROUNDOFF_FLOOR = 1000.0
     ROUNDOFF_STALL = 2
@@ -609,7 +610,7 @@ class ImplicitMidpoint(Integrator):
         return self._w[om]
 
     def step(self, state, P):
-        begin, guess, midstate, residual, relax, finish = self.maps
+        begin, guess, _, residual, relax, finish = self.maps
         if not self.primed:
             state.evaluate(P)
             guess(state.view(), P)
@@ -620,8 +621,7 @@ class ImplicitMidpoint(Integrator):
         best, since_best = float("inf"), 0
         it, res = 0, float("inf")
         for it in range(1, self.max_iter + 1):
-            midstate(state.view(), P)
-            state.evaluate(P, at=0.5)
+            self.map_then_evaluate(state, 2, P, at=0.5)  # the midpoint state, its derivatives
             r, size = state.reduce(residual, state.view(), P)[:2]
             res = r / size if size > 0 else (0.0 if r == 0 else float("inf"))
             if res < 0.5 * best:
