@@ -40,8 +40,36 @@ if numba_config.ENABLE_CUDASIM:
     # interval makes the simulator's runs 4 times faster (the tests and
     # ``benchmarks/cuda_counts.py`` run there); on a GPU nothing changes.
     import sys
+    import threading
+
+    from numba.core import types as _types
+    from numba.cuda.simulator.kernelapi import FakeCUDAShared
+    from numba.np import numpy_support
 
     sys.setswitchinterval(1e-4)
+
+    # The simulator gives a block's threads one shared array per source line, made by the
+    # first thread to reach it: a look-up, then a store, with no lock between. Two threads
+    # switched out between the two got arrays of their own, and a scan or a reduction over
+    # "shared" memory read garbage (seen in cold test runs under load, more often at the
+    # short switch interval above). The same allocation, under a lock.
+    _SHARED_LOCK = threading.Lock()
+    _simulator_shared_array = FakeCUDAShared.array
+
+    def _shared_array(self, shape, dtype, alignment=None):
+        if shape == 0 or alignment is not None:  # dynamic shared memory: one buffer, no key
+            return _simulator_shared_array(self, shape, dtype, alignment)
+        if isinstance(dtype, _types.Type):
+            dtype = numpy_support.as_dtype(dtype)
+        frame = sys._getframe(1)
+        caller = (frame.f_code.co_filename, frame.f_lineno)
+        with _SHARED_LOCK:
+            res = self._allocations.get(caller)
+            if res is None:
+                res = self._allocations[caller] = np.empty(shape, dtype)
+        return res
+
+    FakeCUDAShared.array = _shared_array
 
 THREADS = 128
 #: the cell-start scan's chunks (the elements a thread scans serially): at least this long,
