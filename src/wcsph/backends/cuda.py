@@ -245,10 +245,12 @@ def _scan_chunks(a, chunk, sums, out, fill, ticket):
 
 
 @cuda.jit
-def _scatter_cells(cell, fill, perm):
+def _scatter_cells(cell, fill, raw):
+    """raw[fill[c]++] = i for particle i of cell c: each cell's particles in its range, in
+    the order the atomics give."""
     i = cuda.grid(1)
     if i < cell.size:
-        perm[cuda.atomic.add(fill, cell[i], 1)] = i
+        raw[cuda.atomic.add(fill, cell[i], 1)] = i
 
 
 _SCRATCH = {}
