@@ -403,9 +403,9 @@ def _classic_cylinder():
     has), XSPH on the momentum (epsilon = 0.01, as the classic 3D check), and gravity ramped
     on over 1 s (a summation-density column cannot start hydrostatic, and its acoustic swing
     left the held cylinder without load at a release after 0.5 s); released at 2 s."""
-    import tomllib
+    from ..case.config import read_toml, resolve
 
-    data = tomllib.loads((Path(__file__).parent.parent / "cases" / "cylinder_entry_2d.toml").read_text())
+    data = read_toml(resolve("cylinder_entry_2d"))
     data["model"] = {"name": "classic", "kernel": "wendland", "smoothing_ratio": 2.0, "xsph_epsilon": 0.01,
                      "ViscousTerm": "ArtificialViscosity", "alpha": data["model"]["alpha"]}
     data["physics"]["gravity_ramp_time"] = 1.0
