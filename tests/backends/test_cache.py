@@ -97,3 +97,33 @@ def test_a_stale_cache_index_is_recompiled_not_a_traceback(tmp_path):
     cache_file._index_path = str(index)
     cache_file._version = numba.__version__
     assert cache_file._load_index() == {}
+
+
+def test_two_processes_saving_loops_of_one_source_keep_each_its_own(tmp_path):
+    """Two saves into one index at once (two MPI ranks or test workers compiling two closures
+    of one loop): each key names a data file of its own and loads its own data. Without the
+    lock, both took data file 1 and one key loaded the other's machine code. Two threads
+    stand for the processes (each opens the lock file itself, so the lock is theirs alone);
+    a pause after each read of the index opens the window the race needs."""
+    import threading
+    import time
+
+    from numba.core.caching import IndexDataCacheFile
+
+    import wcsph  # noqa: F401  (installs the locked save)
+
+    class Slow(IndexDataCacheFile):
+        def _load_index(self):
+            overloads = super()._load_index()
+            time.sleep(0.2)
+            return overloads
+
+    caches = [Slow(str(tmp_path), "loop", "stamp") for _ in range(2)]
+    threads = [threading.Thread(target=c.save, args=(f"key{i}", f"code of closure {i}")) for i, c in enumerate(caches)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    fresh = IndexDataCacheFile(str(tmp_path), "loop", "stamp")
+    assert [fresh.load(f"key{i}") for i in range(2)] == ["code of closure 0", "code of closure 1"]
+    assert len(set(fresh._load_index().values())) == 2
