@@ -176,3 +176,41 @@ def test_wall_corrections_leave_a_particle_beside_a_convex_corner(ctx):
     assert v == pytest.approx(2.0) and s == pytest.approx(radius + 0.3 * dp)
     v, s = corrected(-0.3 * dp, 1.2 * dp)  # behind the plane beside it: over the next face
     assert v == 0.0 and s == 0.0
+
+
+def test_werner_wengle_wall_law_gives_the_power_laws_shear(P, ctx):
+    """A particle y above a floor element sliding along it at u_t (and moving off it at u_n):
+    the wall law's term is the no-slip term below y+ = 11.81; above it the tangential force is
+    the no-slip one times rho u_tau^2 y / (mu u_t), u_tau solved here from the power law
+    u_t / u_tau = 8.3 (y u_tau / nu)^(1/7) (Werner & Wengle 1991), and the normal force is
+    unchanged."""
+    from wcsph.physics.viscosity import make_boundary_viscosity
+
+    Elem = namedtuple("Elem", "x n v elementSize")
+    Fluid = namedtuple("Fluid", "x v rho")
+    J = Elem(np.zeros((3, 1)), np.array([[0.0], [-1.0], [0.0]]), np.zeros((3, 1)), np.array([0.01]))
+    nu = 1e-6
+    Pw = P._replace(wall_nu=nu, wall_visc=2.0 * 1e-3)
+    laminar = make_boundary_viscosity(ctx, False)
+    law = make_boundary_viscosity(ctx, False, "werner-wengle")
+
+    def forces(term, y, ut, un):
+        I = Fluid(np.array([[0.0], [y], [0.0]]), np.array([[ut], [un], [0.0]]), np.array([1000.0]))
+        acc = term(0, 0, 0.0, y, 0.0, y, I, J, Pw, ZERO)
+        return np.array(acc[2:4])
+
+    y = 0.005
+    slow = 100 * nu / y  # y+ < 11.81 at this slip
+    assert np.array_equal(forces(law, y, slow, 0.3 * slow), forces(laminar, y, slow, 0.3 * slow))
+    for ut in (0.5, 2.0, 5.0):
+        lo, hi = 1e-6, ut  # bisection: ut / u - 8.3 (y u / nu)^(1/7) falls with u
+        for _ in range(200):
+            u_tau = (lo * hi) ** 0.5
+            lo, hi = (u_tau, hi) if ut / u_tau > 8.3 * (y * u_tau / nu) ** (1 / 7) else (lo, u_tau)
+        assert y * u_tau / nu > 11.81
+        ratio = u_tau ** 2 * y / (nu * ut)
+        f_law, f_lam = forces(law, y, ut, 0.1), forces(laminar, y, ut, 0.1)
+        f_lam_t, f_lam_n = forces(laminar, y, ut, 0.0)[0], forces(laminar, y, 0.0, 0.1)[1]
+        assert f_law[0] == pytest.approx(ratio * f_lam_t, rel=1e-9) and ratio > 5
+        assert f_law[1] == pytest.approx(f_lam_n, rel=1e-12) and f_law[1] == pytest.approx(f_lam[1], rel=1e-12)
+        assert f_law[0] * ut < 0  # against the slip

@@ -10,7 +10,7 @@ velocity: the no-slip wall of Morris, Fox & Zhu (1997) and Adami, Hu & Adams (20
 """
 from numba.extending import register_jitable
 
-from .registry import NONNEG, Choice, Param, add
+from .registry import NONNEG, Choice, Param, add, one_of
 from .interaction import Terms, add_force
 
 
@@ -65,7 +65,7 @@ def make_mvt(ctx, wall=False):
     return term
 
 
-def make_boundary_viscosity(ctx, artificial):
+def make_boundary_viscosity(ctx, artificial, law="no-slip"):
     """No-slip wall term of the WCSPH-BI spec (MVT and MGVT rows):
     c sum_b (v_i - v_b) / ((x_i - x_b) . n_b) W_ib S_b, with c = ``P.wall_visc`` and the
     denominator regularised as d / (d^2 + eps h^2). d < 0 on the fluid side (n_b points out of
@@ -75,8 +75,17 @@ def make_boundary_viscosity(ctx, artificial):
     water lagging behind its rear corners (SPHERIC 6: C_D,v -0.14 against +0.20; the fix is
     min(d, 0), no change on a flat or concave wall). For artificial viscosity the same term with
     the equivalent viscosity nu = alpha h c0 / (2 (n + 2)) (Monaghan 2005), times rho_i, acting
-    only while the particle approaches the wall."""
+    only while the particle approaches the wall.
+
+    ``law = "werner-wengle"``: the wall shear of a turbulent boundary layer that the particles
+    do not resolve (Werner & Wengle 1991: u+ = y+ below y+ = 11.81, u+ = 8.3 y+^(1/7) above).
+    At a particle y = -d from the element's plane, sliding along it at u_t, the law's shear
+    is mu_eff u_t / y with mu_eff / mu = max(1, (y u_t / nu)^(3/4) / 8.3^(7/4)), which the
+    term applies to the tangential slip (the normal part keeps mu). Below y+ = 11.81 it is the
+    no-slip term itself."""
     w, dim, zero, dtype = ctx.w, ctx.dim, ctx.zero, ctx.dtype
+    turbulent = law == "werner-wengle"
+    one, three_quarters, ww = dtype(1), dtype(0.75), dtype(1.0 / 8.3 ** 1.75)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
@@ -89,6 +98,12 @@ def make_boundary_viscosity(ctx, artificial):
         f = P.wall_visc * d / (d * d + P.eps_h2) * w(r, P) * J.elementSize[j]
         if artificial:  # compile-time choice; only while approaching, as a factor 0 or 1
             f *= I.rho[i] * dtype(ux * J.n[0, j] + uy * J.n[1, j] + uz * nz > zero)
+        if turbulent:  # compile-time choice: the tangential slip takes the wall law's viscosity
+            un = ux * J.n[0, j] + uy * J.n[1, j] + uz * nz
+            tx, ty, tz = ux - un * J.n[0, j], uy - un * J.n[1, j], uz - un * nz
+            re_y = -d * (tx * tx + ty * ty + tz * tz) ** 0.5 / P.wall_nu
+            g = max(one, re_y ** three_quarters * ww) - one
+            return add_force(acc, f * (ux + g * tx), f * (uy + g * ty), f * (uz + g * tz))
         return add_force(acc, f * ux, f * uy, f * uz)
 
     return term
@@ -98,19 +113,35 @@ MU = Param("dynamicViscosity", 0.0, "dynamic viscosity mu", unit="Pa s", check=N
 #: every viscous term reads the boundary particles' volume and density
 WALL_VOLUME = frozenset({"wall_volume"})
 SCALE = Param("scaleBVTCoef", 1.0, "scale of the wall viscous term", check=NONNEG, spec=True)
+WALL_LAW = Param("wall_law", "no-slip", "the boundary elements' shear: 'no-slip' (the laminar term) or "
+                 "'werner-wengle' (a turbulent boundary layer's wall law, Werner & Wengle 1991, for walls "
+                 "whose boundary layer the particles do not resolve)", kind="str",
+                 check=one_of("no-slip", "werner-wengle"), walls=("elements",))
+
+
+def _wall_law_check(m):
+    if m.get("wall_law", "no-slip") != "no-slip" and m["dynamicViscosity"] <= 0:
+        return ("wall_law", f"{m['wall_law']!r} needs the fluid's viscosity: set dynamicViscosity > 0")
+    return None
 
 
 def _builder(make, artificial=False):
     def build(ctx, q):
-        wall = make_boundary_viscosity(ctx, artificial) if q.boundary == "elements" else make(ctx, wall=True)
+        if q.boundary == "elements":
+            wall = make_boundary_viscosity(ctx, artificial, q.m.get("wall_law", "no-slip"))
+        else:
+            wall = make(ctx, wall=True)
         return Terms([make(ctx)], [wall])
     return build
 
 
-def _values(coef):
+def _values(coef, physical=False):
     def values(q):
         c = coef(q)
-        return {"visc": c, "wall_visc": c * q.m["scaleBVTCoef"]}
+        out = {"visc": c, "wall_visc": c * q.m["scaleBVTCoef"]}
+        if physical:  # the wall law's nu
+            out["wall_nu"] = q.m["dynamicViscosity"] / q.ph["rho0"]
+        return out
     return values
 
 
@@ -128,12 +159,12 @@ add("viscous", Choice(
     implies=WALL_VOLUME))
 add("viscous", Choice(
     "PhysicalViscosity_MVT", "Morris, Fox & Zhu (1997); WCSPH-BI spec (MVT row)", "2 mu sum_j V_j v_ij x_ij.grad W_ij/(r^2+eps h^2)",
-    params=(MU, SCALE), p_fields=("visc", "wall_visc"), values=_values(lambda q: 2.0 * q.m["dynamicViscosity"]),
-    build=_builder(make_mvt), nu=physical_nu, implies=WALL_VOLUME))
+    params=(MU, SCALE, WALL_LAW), p_fields=("visc", "wall_visc", "wall_nu"),
+    values=_values(lambda q: 2.0 * q.m["dynamicViscosity"], physical=True), build=_builder(make_mvt), nu=physical_nu, check=_wall_law_check, implies=WALL_VOLUME))
 add("viscous", Choice(
     "PhysicalViscosity_MGVT", "Monaghan & Gingold (1983); WCSPH-BI spec (MGVT row)",
-    "2 (n+2) mu sum_j psi_ij grad W_ij V_j", params=(MU, SCALE), p_fields=("visc", "wall_visc"),
-    values=_values(lambda q: 2.0 * (q.dim + 2) * q.m["dynamicViscosity"]), build=_builder(make_mgvt), nu=physical_nu,
+    "2 (n+2) mu sum_j psi_ij grad W_ij V_j", params=(MU, SCALE, WALL_LAW), p_fields=("visc", "wall_visc", "wall_nu"),
+    values=_values(lambda q: 2.0 * (q.dim + 2) * q.m["dynamicViscosity"], physical=True), build=_builder(make_mgvt), nu=physical_nu, check=_wall_law_check,
     implies=WALL_VOLUME))
 
 
