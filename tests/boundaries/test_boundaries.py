@@ -188,6 +188,8 @@ MOTION_SPEC = {"velocity": None, "omega": 0.0, "amplitude": None, "angle_amplitu
 @pytest.mark.parametrize("dim, motion", [
     (2, {"kind": "velocity", "velocity": [0.3, -0.1], "omega": 2.0}),
     (2, {"kind": "sinusoidal", "amplitude": [0.05, 0.02], "angle_amplitude": 0.3, "frequency": 1.5, "phase": 0.2}),
+    (2, {"kind": "sinusoidal", "amplitude": [0.05, 0.02], "angle_amplitude": 0.3, "frequency": 1.5, "phase": 0.2,
+         "ramp": 0.9}),  # t = 0.37: in the ramp
     (3, {"kind": "velocity", "velocity": [0.3, -0.1, 0.2], "omega": 2.0, "axis": [1.0, 2.0, 2.0]}),
     (3, {"kind": "sinusoidal", "amplitude": [0.05, 0.02, 0.01], "angle_amplitude": 0.3, "frequency": 1.5,
          "phase": 0.2, "axis": [0.0, 1.0, 1.0]}),

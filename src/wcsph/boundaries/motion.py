@@ -13,8 +13,10 @@ pressure reads (Adami, Hu & Adams 2012, eq. 27: p_b carried from the fluid along
 Kinds (``motion.kind``):
 
 * ``velocity``: d = U t, theta = omega t (constant ``velocity`` U and ``omega``);
-* ``sinusoidal``: d = A sin(2 pi f t + phi), theta = Theta sin(2 pi f t + phi) (``amplitude``
-  A, ``angle_amplitude`` Theta, ``frequency`` f, ``phase`` phi);
+* ``sinusoidal``: d = A r(t) sin(2 pi f t + phi), theta = Theta r(t) sin(2 pi f t + phi)
+  (``amplitude`` A, ``angle_amplitude`` Theta, ``frequency`` f, ``phase`` phi); r(t) = 1 unless
+  a ``ramp`` of t_r > 0 seconds is given (the wavemakers' ramp below: the body then starts from
+  rest without a jerk, where r = 1 starts it at the speed 2 pi f A cos phi at once);
 * ``piston`` and ``flap``: a wavemaker for regular waves of ``height`` H and ``period`` T in
   water of ``depth`` h (linear theory). The wave number k solves omega^2 = g k tanh(k h), and
   Biesel's transfer function gives the stroke S (at the still water level) from H: piston
@@ -83,6 +85,19 @@ def wavemaker_stroke(kind, height, period, depth, g):
     return height / ratio, k
 
 
+def ramped_sine(t, w, phase, t_ramp):
+    """(q, q', q'') of q = r(t) sin(w t + phase), r = (1 - cos(pi t / t_ramp)) / 2 until
+    t_ramp, then 1 (r = 1 throughout for t_ramp <= 0)."""
+    if t_ramp > 0 and t < t_ramp:
+        a = math.pi / t_ramp
+        r, r1, r2 = 0.5 * (1 - math.cos(a * t)), 0.5 * a * math.sin(a * t), 0.5 * a * a * math.cos(a * t)
+    else:
+        r, r1, r2 = 1.0, 0.0, 0.0
+    arg = w * t + phase
+    sn, cs = math.sin(arg), math.cos(arg)
+    return r * sn, r1 * sn + r * w * cs, r2 * sn + 2 * r1 * w * cs - r * w * w * sn
+
+
 class Motion:
     """d(t), theta(t) and their rates for one ``motion`` table (validated)."""
 
@@ -111,6 +126,8 @@ class Motion:
         self.axis = axis
         if self.kind == "sinusoidal" and spec["frequency"] <= 0:
             raise CaseError(f"{key}.frequency: a sinusoidal motion needs a frequency > 0")
+        if self.kind == "sinusoidal":
+            self.t_ramp = max(spec["ramp"], 0.0)  # none unless given
         if self.kind == "table":
             if not spec["file"]:
                 raise CaseError(f"{key}.file: a table motion needs a CSV file of t, x, y[, z], theta")
@@ -138,15 +155,7 @@ class Motion:
         """(q, q', q'') of the wavemaker's coordinate: the piston's displacement, the flap's
         angle."""
         amp = 0.5 * self.stroke if self.kind == "piston" else math.atan(0.5 * self.stroke / self.spec["depth"])
-        w, tr = self.omega_w, self.t_ramp
-        if tr > 0 and t < tr:
-            a = math.pi / tr
-            r, r1, r2 = 0.5 * (1 - math.cos(a * t)), 0.5 * a * math.sin(a * t), 0.5 * a * a * math.cos(a * t)
-        else:
-            r, r1, r2 = 1.0, 0.0, 0.0
-        arg = w * t + self.spec["phase"]
-        sn, cs = math.sin(arg), math.cos(arg)
-        return (amp * r * sn, amp * (r1 * sn + r * w * cs), amp * (r2 * sn + 2 * r1 * w * cs - r * w * w * sn))
+        return tuple(amp * q for q in ramped_sine(t, self.omega_w, self.spec["phase"], self.t_ramp))
 
     def state(self, t):
         """(d (dim,), theta, d' (dim,), omega) at time t."""
@@ -161,10 +170,8 @@ class Motion:
         if self.kind == "velocity":
             return self.u * t, s["omega"] * t, self.u, s["omega"]
         if self.kind == "sinusoidal":
-            w = 2 * math.pi * s["frequency"]
-            arg = w * t + s["phase"]
-            return (self.a * math.sin(arg), s["angle_amplitude"] * math.sin(arg),
-                    self.a * w * math.cos(arg), s["angle_amplitude"] * w * math.cos(arg))
+            q, q1, _ = ramped_sine(t, 2 * math.pi * s["frequency"], s["phase"], self.t_ramp)
+            return self.a * q, s["angle_amplitude"] * q, self.a * q1, s["angle_amplitude"] * q1
         tab, t0 = self.table, self.table[:, 0]
         row = np.array([np.interp(t, t0, tab[:, k]) for k in range(1, tab.shape[1])])
         if t < t0[0] or t > t0[-1]:
@@ -184,9 +191,8 @@ class Motion:
         if self.kind == "velocity":
             return np.zeros(self.dim), 0.0
         if self.kind == "sinusoidal":
-            w = 2 * math.pi * s["frequency"]
-            sn = math.sin(w * t + s["phase"])
-            return -self.a * w * w * sn, -s["angle_amplitude"] * w * w * sn
+            q2 = ramped_sine(t, 2 * math.pi * s["frequency"], s["phase"], self.t_ramp)[2]
+            return self.a * q2, s["angle_amplitude"] * q2
         mid = self.mid
         if len(self.accels) == 0 or t < mid[0] or t >= mid[-1]:
             return np.zeros(self.dim), 0.0
