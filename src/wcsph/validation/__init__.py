@@ -428,13 +428,13 @@ def oscillating_cylinder(quick, case="oscillating_cylinder_2d", label="WCSPH-BI"
     import csv
     import tempfile
 
-    from ..boundaries.motion import ramped_sine
+    from ..boundaries.motion import Motion
     from .potential import added_mass_2d
 
     sim = _sim(case, [("output.vtk", False), ("output.progress", False)])
     body = sim.case["polygon"][0]
     m = body["motion"]
-    A, w, ramp = m["amplitude"][0], 2 * math.pi * m["frequency"], m["ramp"]
+    motion, w = Motion(m, 2), 2 * math.pi * m["frequency"]
     tank = sim.case["tank"]
     (x0, y0), (x1, y1) = tank["min"], tank["max"]
     rho = sim.case["physics"]["rho0"]
@@ -445,12 +445,13 @@ def oscillating_cylinder(quick, case="oscillating_cylinder_2d", label="WCSPH-BI"
             rows = list(csv.DictReader(f))
     t = np.array([float(r["time"]) for r in rows])
     fx = np.array([float(r[f"{body['name']}_fx"]) for r in rows])
-    keep = t >= ramp + 0.25 * 2 * math.pi / w
-    acc, vel = -A * w * w * np.sin(w * t[keep] + m["phase"]), A * w * np.cos(w * t[keep] + m["phase"])
-    (m_a, c, f0), *_ = np.linalg.lstsq(np.c_[-acc, -vel, np.ones_like(acc)], fx[keep], rcond=None)
+    vel = np.array([motion.state(tt)[2][0] for tt in t])  # the body's own motion, as its walls follow it
+    acc = np.array([motion.acceleration(tt)[0][0] for tt in t])
+    keep = t >= max(m["ramp"], 0.0) + 0.25 * 2 * math.pi / w
+    (m_a, c, f0), *_ = np.linalg.lstsq(np.c_[-acc[keep], -vel[keep], np.ones(keep.sum())], fx[keep], rcond=None)
     e_m, zeta = m_a / m_ref - 1, c / (m_a * w)
     err = max(abs(e_m) / 0.05, abs(zeta) / 0.05)
-    inertia = np.array([-m_ref * A * ramped_sine(tt, w, m["phase"], ramp)[2] for tt in t])
+    inertia = -m_ref * acc
     return Result(f"Oscillating cylinder, added mass, {label}", "abs(m_a / potential flow - 1) / 5 % and "
                   "abs(c / (m_a omega)) / 5 %, F_x = -m_a a - c v + F_0 fitted after the ramp",
                   "potential flow in the tank (source panels)", err, 1.0, bool(err < 1.0),
