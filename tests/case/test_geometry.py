@@ -59,3 +59,42 @@ def test_an_open_polygon_with_wall_particles_is_one_line():
     case = validate(dict(CLASSIC, polygon=[{"points": [[0.2, 0.1], [0.6, 0.1]], "closed": False}]))
     with pytest.raises(CaseError, match=r"polygon\[0\]\.closed: an open polygon has no solid side"):
         geometry.build(case)
+
+
+def test_a_compressed_lattice_spaces_its_layers_by_the_column_density():
+    """``compressed_lattice``: with rho / rho0 = 1 the plain lattice; with a density growing
+    with depth the layers sit closer by its ratio, the lowest dp / 2 above the bottom, and the
+    top layer within dp / 2 of where a lattice holding the column's mass ends."""
+    lo, hi, dp = [0.0, 0.0], [0.4, 1.0], 0.02
+    plain = geometry.compressed_lattice(lo, hi, dp, lambda z: np.ones_like(z))
+    assert _set(plain) == _set(geometry.lattice(lo, hi, dp))
+    k = 0.1  # rho / rho0 = 1 + k depth: the column holds 1 + k / 2 times the plain mass
+    x = geometry.compressed_lattice(lo, hi, dp, lambda z: 1.0 + k * np.asarray(z))
+    ys = np.unique(np.round(x[1], 12))
+    assert x.shape[1] == 20 * round(50 * (1 + k / 2))  # 20 columns of 52.5 -> 52 or 53 layers
+    assert ys[0] == pytest.approx(0.5 * dp / (1 + k), rel=1e-3)
+    mid = 0.5 * (ys[1:] + ys[:-1])
+    assert np.allclose(np.diff(ys), dp / (1 + k * (1.0 - mid)), rtol=1e-3)
+    assert abs(ys[-1] + 0.5 * np.diff(ys)[-1] - 1.0) <= 0.501 * dp
+
+
+def test_a_summation_density_column_starts_at_rest_at_its_level():
+    """A classic (summation-density) column under gravity is sampled compressed, so that its
+    summed density is the hydrostatic one (the EOS at rho0 g depth, as a continuity density
+    starts) and it keeps the case's water level; a plain lattice would settle lower by the mean
+    compression (2.5 % of the depth at c0 = 10 m/s, 0.5 m: 0.6 dp here). With a gravity ramp
+    the column starts unloaded, on the plain lattice."""
+    from wcsph.solver.simulation import Simulation
+
+    case = dict(CLASSIC, dp=0.02, physics={"speed_of_sound": 10.0, "gravity": [0.0, -9.81]})
+    sim = Simulation(validate(case))
+    sim.state.evaluate(sim.P)  # the summation density
+    x, rho = (a.astype(float) for a in sim.host(sim.fluid, "x", "rho"))
+    depth = 0.5 - x[1]
+    inner = (depth > 0.1) & (x[1] > 0.1) & (np.abs(x[0] - 0.5) < 0.3)
+    want = np.array([sim.model.q.eos_density(sim.P.p0 + 1000.0 * 9.81 * z, sim.P) for z in depth[inner]])
+    assert rho[inner].min() > 1008.0  # compressed by 1-4 % here
+    assert np.allclose(rho[inner], want, rtol=0.003)
+    assert abs(x[1].max() - (0.5 - 0.01)) <= 0.01 + 1e-6  # top layer within dp / 2 of the plain one's
+    ramped = Simulation(validate(dict(case, physics=dict(case["physics"], gravity_ramp_time=0.5))))
+    assert ramped.host(ramped.fluid, "x")[0].shape[1] == 50 * 25 < x.shape[1]

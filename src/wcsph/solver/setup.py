@@ -37,23 +37,26 @@ def build(case, backend, comm):
     h = smoothing_length(case)
     geometry.check_size(case)
     fluid0, wall0, lo, hi = geometry.build(case)
+    ph = case["physics"]
+    # Becker & Teschner's stiffness kappa is c0^2 of p = kappa rho0/gamma ((rho/rho0)^gamma - 1)
+    c0 = (math.sqrt(ph["kappa"]) if ph["kappa"] > 0 else ph["speed_of_sound"]) or default_sound_speed(case, fluid0)
+    w_np, _ = kernel_numpy(m["kernel"], dim, h)
+    model = WCSPH(case, be)
+    gravity = np.asarray(ph["gravity"], dtype=float)
+    column = _column(case, model, c0, h, gravity, w_np)
+    if column is not None:  # a summation density's column at rest: its boxes sampled compressed
+        fluid0, wall0, lo, hi = geometry.build(case, column)
     opened = None
     if case["open_boundary"]:  # the buffers' particles join the fluid set, kind > 0
         opened = OpenBoundaries(case, dp, SUPPORT * h)
         fluid0 = _with_buffers(case, fluid0, opened, lo, hi, dp)
     grid = _grid(case, lo, hi, h)
     warnings = list(case.get("_warnings", ()))  # settings that make results doubtful
-    ph = case["physics"]
-    # Becker & Teschner's stiffness kappa is c0^2 of p = kappa rho0/gamma ((rho/rho0)^gamma - 1)
-    c0 = (math.sqrt(ph["kappa"]) if ph["kappa"] > 0 else ph["speed_of_sound"]) or default_sound_speed(case, fluid0)
-    w_np, _ = kernel_numpy(m["kernel"], dim, h)
-    model = WCSPH(case, be)
     mass = model.particle_mass(dp, h, ph["rho0"], w_np)
     integrator, cfl = _integrator(case, be, model, warnings)
     if h < dp * (1 - 1e-9):
         warnings.append(f"h = {h:g} m is smaller than dp = {dp:g} m: a particle has almost no "
                         "neighbours and the SPH sums are meaningless")
-    gravity = np.asarray(ph["gravity"], dtype=float)
     P = model.params(dict(kernel_params(m["kernel"], dim, h), rc=grid.support), ph["rho0"], c0, h, gravity, 1.0, w_np)
 
     x, v = fluid0["x"], fluid0["v"]
@@ -107,6 +110,23 @@ def build(case, backend, comm):
         par.redistribute(fluid)
     model.initialize(fluid, walls, P, state.G, mass)
     return Setup(state, integrator, bodies, opened, cfl, warnings)
+
+
+def _column(case, model, c0, h, gravity, w_np):
+    """depth -> rho / rho0 of a column at rest under the case's gravity, by the model's EOS
+    at p = rho0 |g| depth (as ``initial_density`` gives a continuity density), for a
+    summation-density model, whose density is the particles' spacing; None for a continuity
+    density (it starts hydrostatic in rho at the lattice's spacing), without gravity, and
+    with a gravity ramp (the column then starts unloaded and settles as gravity comes on)."""
+    g = abs(float(gravity[-1]))
+    if model.continuity or g == 0 or case["physics"]["gravity_ramp_time"] > 0 or not case["fluid"]:
+        return None
+    rho0 = case["physics"]["rho0"]
+    P = model.params(dict(kernel_params(case["model"]["kernel"], case["dim"], h), rc=SUPPORT * h), rho0, c0, h,
+                     gravity, 1.0, w_np)
+    Pd = P._replace(**{f: float(v) for f, v in P._asdict().items()})  # in double precision
+    eos_density = model.q.eos_density
+    return lambda depth: np.array([eos_density(Pd.p0 + rho0 * g * z, Pd) for z in np.ravel(depth)]) / rho0
 
 
 def default_sound_speed(case, fluid0):
