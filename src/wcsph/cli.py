@@ -59,7 +59,9 @@ def _parser():
                         description="Run each validation case (Poiseuille, Couette, Taylor-Green, hydrostatic "
                                     "tanks, a coarse SPHERIC 2; with the full set also the dam breaks against "
                                     "Martin & Moyce and Koshizuka & Oka, convergence studies, SPHERIC 2 in both "
-                                    "models, SPHERIC 6 and Lobovsky et al. 2014), compare it with its reference "
+                                    "models, SPHERIC 6, Lobovsky et al. 2014, the floating box, Fekken's cylinder "
+                                    "in both models, the oscillating cylinder, the wave flume and the CIEM "
+                                    "flume's record), compare it with its reference "
                                     "and tolerance, and write DIR/report.md with a pass/fail table and a plot "
                                     "per check. Exit status 1 when a check fails (the report names the open "
                                     "goals: checks whose tolerance is a target not met yet).")

@@ -103,3 +103,11 @@ def fekken_cylinder():
     """(T, displacement [m]) of Fekken's (2004) sinking cylinder, R = 1 m, T = t sqrt(g/R)."""
     d = np.loadtxt(DATA / "fekken_2004_cylinder_displacement.dat", comments="#")
     return d[:, 0], d[:, 1]
+
+
+def ciem_wavemaker():
+    """(t [s], piston [m], {gauge: elevation [m]}) of the CIEM flume's regular waves (scaled,
+    T = 1 s), as DualSPHysics ships them with CaseWavemaker2D: WG1 and WG2 0.35 and 1.80 m from
+    the piston's face (WG3, on the structure the case leaves out, is not returned)."""
+    d = np.loadtxt(DATA / "ciem_wavemaker_2d_gauges.dat", comments="#")
+    return d[:, 0], d[:, 1], {"WG1": d[:, 2], "WG2": d[:, 3]}
