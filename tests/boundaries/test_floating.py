@@ -679,8 +679,9 @@ def test_a_box_and_a_hexagon_meet_and_keep_their_momentum(offset):
         assert abs(a.omega) > 0.5 and abs(b.omega) > 0.1, (a.omega, b.omega)
 
 
-def test_a_convex_polygon_case_body_holds_others_out_and_a_concave_one_does_not():
-    """A floating polygon of a case gets its faces (a convex one) or none (a concave one)."""
+def test_a_convex_polygon_case_body_holds_others_out_and_a_concave_one_by_its_pieces():
+    """A floating polygon of a case gets its faces (a convex one) or none and its convex
+    pieces (a concave one: the dart, two triangles), which ``shapes`` gives either way."""
     from wcsph.boundaries.floating import body_of
 
     base = {"dim": 2, "dp": 0.1, "time": {"end": 0.1}, "fluid": [{"min": [0.0, 0.0], "max": [1.0, 0.5]}],
@@ -690,6 +691,111 @@ def test_a_convex_polygon_case_body_holds_others_out_and_a_concave_one_does_not(
         case = validate(dict(base, polygon=[{"name": "b", "points": pts, "closed": True, "floating": {"mass": 2.0}}]))
         body = body_of("polygon[0]", case["polygon"][0], 2)
         assert (body.faces() is not None) == convex
+        assert len(body.shapes()) == (1 if convex else 2)
+
+
+def _in_polygon(x, pts):
+    from matplotlib.path import Path
+
+    return Path(np.asarray(pts, dtype=float)).contains_points(np.asarray(x).T)
+
+
+L_SHAPE = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]]
+STAR = [[np.cos(a) * r, np.sin(a) * r] for a, r in zip(np.arange(10) * np.pi / 5, [1.0, 0.4] * 5)]
+
+
+@pytest.mark.parametrize("pts,pieces", [(L_SHAPE, 2), (L_SHAPE[::-1], 2), (STAR, None),
+                                        ([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 1)])
+def test_convex_pieces_cover_the_polygon_and_expose_its_own_edges(pts, pieces):
+    """``convex_pieces``: the pieces are convex, cover the polygon and nothing else (every
+    point of a grid over it is inside the polygon exactly when inside one piece), the faces
+    marked exposed lie on the polygon's edges and add up to its perimeter; an L is two
+    pieces either way round, a square one, a five-pointed star at most its ten triangles."""
+    from wcsph.boundaries.floating import convex_pieces
+
+    got = convex_pieces(np.asarray(pts, dtype=float).T)
+    assert got is not None and (len(got) == pieces if pieces else 2 <= len(got) <= 8)
+    v = np.asarray(pts, dtype=float)
+    g = np.stack(np.meshgrid(np.linspace(v[:, 0].min() - 0.1, v[:, 0].max() + 0.1, 97),
+                             np.linspace(v[:, 1].min() - 0.1, v[:, 1].max() + 0.1, 89))).reshape(2, -1)
+    count = sum(np.all(N @ g < o[:, None] - 1e-9, axis=0).astype(int) for N, o, _ in got)
+    assert np.all(count <= 1)  # pieces do not overlap
+    inside = _in_polygon(g, pts)
+    edge_free = np.array([min(np.min(np.abs(N @ p - o)) for N, o, _ in got) > 1e-6 for p in g.T])
+    assert np.array_equal((count == 1)[edge_free], inside[edge_free])
+    perimeter = sum(np.linalg.norm(v[(k + 1) % len(v)] - v[k]) for k in range(len(v)))
+    exposed = 0.0
+    for N, o, out in got:
+        assert len(N) == len(o) == len(out) and np.allclose(np.linalg.norm(N, axis=1), 1.0)
+        for f in np.flatnonzero(out):  # the length of the piece's face f: its extent along the face
+            corners = [p for p in v if abs(N[f] @ p - o[f]) < 1e-9 and np.all(N @ p <= o + 1e-9)]
+            t = np.array([N[f][1], -N[f][0]])
+            exposed += np.ptp([t @ p for p in corners])
+    assert exposed == pytest.approx(perimeter, rel=1e-9)
+
+
+def test_a_box_dropped_into_a_fixed_cup_rests_on_its_inner_floor():
+    """A fixed concave polygon (a cup, open on top: its floor 0.1 m thick at y = 0.1-0.2, walls
+    at x = 0-0.1 and 0.9-1.0) holds a falling box out of it as a convex obstacle is held
+    (``fixed_blocks`` gives its convex pieces): the box, dropped inside the cup, never has a
+    point inside the cup's solid and comes to rest on its inner floor (within 1e-9 m)."""
+    from wcsph.boundaries.floating import FloatingBody, fixed_blocks
+
+    cup = [[0.0, 0.1], [1.0, 0.1], [1.0, 0.8], [0.9, 0.8], [0.9, 0.2], [0.1, 0.2], [0.1, 0.8], [0.0, 0.8]]
+    case = validate({"dim": 2, "dp": 0.1, "time": {"end": 0.1}, "fluid": [{"min": [1.2, 0.0], "max": [1.5, 0.3]}],
+                     "tank": {"min": [-0.5, 0.0], "max": [1.6, 2.0]},
+                     "polygon": [{"points": cup[::-1], "closed": True}]})  # clockwise, the fluid outside
+    blocks = fixed_blocks(case)
+    assert len(blocks) >= 3 and all(len(b) == 3 for b in blocks)
+    b = FloatingBody("box", 2, 2.0, [0.5, 0.6], 2.0 * (0.2 ** 2 + 0.2 ** 2) / 12.0)
+    corners = np.array([0.5, 0.6])[:, None] + np.array([[-0.1, 0.1, 0.1, -0.1, 0.0, 0.1, 0.0, -0.1],
+                                                         [-0.1, -0.1, 0.1, 0.1, -0.1, 0.0, 0.1, 0.0]])
+    b.meet(corners, [], blocks)
+    b.u = np.array([0.0, -1.0])
+    for _ in range(400):
+        b.step(0.002, [0.0, 0.0], 0.0, [0.0, -9.81])
+        x = b.c[:, None] + _rot(b.theta) @ b.points
+        on_edge = np.array([min(np.min(np.abs(N @ p - o)) for N, o, _ in blocks) < 1e-9 for p in x.T])
+        assert not np.any(_in_polygon(x, cup) & ~on_edge)
+    assert b.c[1] - 0.1 == pytest.approx(0.2, abs=1e-9) and abs(b.u[1]) < 1e-9 and b.c[0] == pytest.approx(0.5)
+
+
+def test_a_box_thrown_into_a_floating_l_stays_out_of_it_and_keeps_the_momentum():
+    """A box (1 kg) thrown into the notch of a floating L (3 kg; no gravity), turning: no
+    wall point of the box ever enters the L (its two convex pieces), their momentum stays as
+    it was to round-off and their kinetic energy never grows."""
+    from wcsph.boundaries.floating import FloatingBody, collide, convex_pieces, polygon_properties
+
+    a, pa = _box_body([1.4, 1.4], [1.6, 1.6], 1.0)
+    L = np.asarray(L_SHAPE, dtype=float).T
+    area, c, j = polygon_properties(L.T)
+    b = FloatingBody("L", 2, 3.0, c, 3.0 / area * j)
+    b.pieces = convex_pieces(L - c[:, None])
+    edges = [L[:, k][:, None] + np.outer(L[:, (k + 1) % 6] - L[:, k], np.linspace(0, 1, 12, endpoint=False))
+             for k in range(6)]
+    a.meet(pa, [])
+    b.meet(np.concatenate(edges, axis=1), [])
+    a.u, a.omega = np.array([-1.5, -1.0]), 2.0
+
+    def energy(x):
+        return 0.5 * x.mass * x.u @ x.u + 0.5 * x.inertia * x.omega ** 2
+
+    P0, E = a.mass * a.u + b.mass * b.u, energy(a) + energy(b)
+    met = False
+    for _ in range(300):
+        for body in (a, b):
+            body.step(0.002, [0.0, 0.0], 0.0, [0.0, 0.0])
+        met = collide(a, b) or met
+        x = a.c[:, None] + _rot(a.theta) @ a.points
+        y = _rot(b.theta).T @ (x - b.c[:, None]) + c[:, None]  # in the L's frame at the start
+        inside = _in_polygon(y, L_SHAPE)
+        depth = np.array([min(np.min(np.abs(N @ (p - c) - o)) for N, o, _ in b.pieces) for p in y.T])
+        assert not np.any(inside & (depth > 1e-9))
+        assert a.mass * a.u + b.mass * b.u == pytest.approx(P0, abs=1e-12)
+        e = energy(a) + energy(b)
+        assert e <= E * (1 + 1e-12)
+        E = e
+    assert met
 
 
 @pytest.mark.parametrize("mu", [0.0, 0.5])

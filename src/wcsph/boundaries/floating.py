@@ -55,7 +55,7 @@ frictionless unless ``friction`` gives Coulomb's coefficient mu: then impulses a
 at the same points also take out the sliding speed there, each at most mu times that point's
 normal impulse, so that a body on a slope stays where tan(slope) <= mu and slides with
 g (sin - mu cos) where it is steeper (with another body, the lesser of the two mu). The
-same holds a body out of the case's fixed obstacle boxes and closed convex polygons (their
+same holds a body out of the case's fixed obstacle boxes and closed polygons (their
 faces as half-spaces, ``fixed_blocks``): wall points of the body inside one move the body out
 through the face that needs the least push (along its normal, on the free axes), and impulses
 through them take its velocity into the obstacle out, turning it as at the tank's faces.
@@ -63,9 +63,12 @@ Two floating bodies (``collide``) are parted the same way in the frame of the on
 which must be convex (a box, a convex polygon, a closed convex wall mesh: its faces as
 half-spaces), the push out through its nearest face shared in inverse proportion to their
 masses, and impulses through the contact points, equal and opposite on the two, remove their
-approach there and turn both (momentum and angular momentum kept). A concave floating body
-holds no other body's points out of it (its own points are still held out of convex ones),
-and a moving obstacle meets a floating body through the fluid between them alone.
+approach there and turn both (momentum and angular momentum kept). A concave polygon, fixed
+or floating (2D), is held as its convex pieces (``convex_pieces``: ear clipping, then pieces
+merged while convex), each pushed out of only through the polygon's own edges, not the
+diagonals between pieces; a concave 3D mesh holds no other body's points out of it (its own
+points are still held out of convex ones), and a moving obstacle meets a floating body
+through the fluid between them alone.
 """
 import math
 
@@ -184,6 +187,7 @@ class FloatingBody:
         self.blocks = []  # (N, o): fixed convex obstacles the body stays out of, inside where N x < o
         self.box = None  # (lo, hi) about c0 in the body's frame, when the body is an obstacle box
         self.hull = None  # (N (m, dim), o (m)): a convex body's faces about c0, inside where N y < o
+        self.pieces = []  # a concave 2D body's convex pieces about c0 (``convex_pieces``)
 
     def meet(self, points, planes, blocks=()):
         """The body's wall points (dim, K) at rest, the faces it must stay inside of
@@ -192,7 +196,7 @@ class FloatingBody:
         N x < o)."""
         self.points = np.asarray(points, dtype=float) - self.c0[:, None]
         self.planes = [(np.asarray(n, dtype=float), float(o)) for n, o in planes]
-        self.blocks = [(np.asarray(N, dtype=float), np.asarray(o, dtype=float)) for N, o in blocks]
+        self.blocks = [(np.asarray(b[0], dtype=float), np.asarray(b[1], dtype=float)) + tuple(b[2:]) for b in blocks]
 
     def pose(self, t):
         """(d, R, u, omega, du, alpha): the centre's displacement from where it started, the
@@ -353,7 +357,9 @@ class FloatingBody:
         points that were inside take the velocity and acceleration into the obstacle out
         (rigid, inelastic, turning the body, as at the tank's faces)."""
         R = self.R if self.dim == 3 else _rot2(self.theta)
-        for N, o in self.blocks:
+        for block in self.blocks:
+            N, o = block[:2]
+            out = _exits(block)
             x = self.c[:, None] + R @ self.points
             depth = o[:, None] - N @ x  # (faces, points): how far inside each face
             inside = np.all(depth > 0.0, axis=0)
@@ -361,6 +367,8 @@ class FloatingBody:
                 continue
             best = None
             for f, need in enumerate(np.max(depth[:, inside], axis=1)):
+                if not out[f]:
+                    continue  # a diagonal inside a concave obstacle
                 m = N[f] * self.free_t
                 along = float(m @ N[f])
                 if not along > 0.0:
@@ -385,6 +393,12 @@ class FloatingBody:
         if self.box is None:
             return None
         return box_faces(*self.box)
+
+    def shapes(self):
+        """The convex pieces other bodies stay out of, in its own frame about its centre: its
+        ``faces`` as one, or a concave polygon's pieces (N, o, exposed: ``convex_pieces``)."""
+        f = self.faces()
+        return [f] if f is not None else list(self.pieces)
 
     def columns(self, name):
         """The probes.csv columns of this body's state."""
@@ -638,15 +652,22 @@ def body_of(key, table, dim, mesh=None, rho0=1000.0):
                         fl["translation"], fl["rotation"], fl["hinge"], fl["springs"], fl["friction"])
     if table.get("min") is not None:  # a box: other floating bodies stay out of it
         body.box = (np.asarray(table["min"], dtype=float) - c, np.asarray(table["max"], dtype=float) - c)
-    elif table.get("points") is not None:  # a convex polygon likewise (a concave one: through the fluid)
-        body.hull = convex_faces(np.asarray(table["points"], dtype=float).T - c[:, None])
+    elif table.get("points") is not None:  # a polygon likewise (a concave one as its convex pieces)
+        outline = np.asarray(table["points"], dtype=float).T - c[:, None]
+        body.hull = convex_faces(outline)
+        if body.hull is None:
+            body.pieces = convex_pieces(outline) or []
     elif mesh is not None:
         verts, faces = mesh
-        if dim == 3:
+        if dim == 3:  # a concave mesh: through the fluid alone
             body.hull = convex_faces(np.asarray(verts, dtype=float) - c[:, None], faces)
         else:  # a 2D mesh: its outline's segments in order
             order = _outline(np.asarray(faces))
-            body.hull = None if order is None else convex_faces(np.asarray(verts, dtype=float)[:, order] - c[:, None])
+            if order is not None:
+                outline = np.asarray(verts, dtype=float)[:, order] - c[:, None]
+                body.hull = convex_faces(outline)
+                if body.hull is None:
+                    body.pieces = convex_pieces(outline) or []
     return body
 
 
@@ -691,11 +712,10 @@ def collide(a, b):
     inelastic: momentum and angular momentum kept; friction as ``contact_impulses``). Returns
     whether they touched."""
     touched = False
-    for p, q in ((a, b), (b, a)):
-        shape = q.faces()
-        if shape is None or not p.points.shape[1]:
+    for p, q, shape in [(p, q, s) for p, q in ((a, b), (b, a)) for s in q.shapes()]:
+        if not p.points.shape[1]:
             continue
-        N, o = shape
+        N, o = shape[:2]
         Rp = p.R if p.dim == 3 else _rot2(p.theta)
         Rq = q.R if q.dim == 3 else _rot2(q.theta)
         x = p.c[:, None] + Rp @ p.points
@@ -705,7 +725,7 @@ def collide(a, b):
         inside = np.all(depth > slack, axis=0)
         if not inside.any():
             continue
-        needs = np.max(depth[:, inside], axis=1)  # the push out through each face
+        needs = np.where(_exits(shape), np.max(depth[:, inside], axis=1), np.inf)  # the push out through each face
         f = int(np.argmin(needs))  # the first of the least
         need = float(needs[f])
         n = Rq @ N[f]  # out of q, for p
@@ -731,8 +751,18 @@ def box_faces(lo, hi):
 
 def _size(N, o):
     """A length of the convex shape (N, o): twice its largest offset (a box's largest side,
-    for a box about its centre)."""
-    return 2.0 * float(np.max(o))
+    for a box about its centre; a piece of a concave body: of the distance of its faces)."""
+    return 2.0 * float(np.max(np.abs(o)))
+
+
+def _exits(shape):
+    """Which faces of a convex shape (N, o[, exposed]) a push may leave it through: its own
+    edges (a concave body's piece: not the diagonals to its other pieces), or every face when
+    it has none of its own (a piece inside the others: it is left, into its neighbour, which
+    the next contact leaves)."""
+    if len(shape) < 3 or not np.any(shape[2]):
+        return np.ones(len(shape[1]), dtype=bool)
+    return np.asarray(shape[2], dtype=bool)
 
 
 def convex_faces(points, tris=None):
@@ -767,10 +797,82 @@ def convex_faces(points, tris=None):
     return N, o
 
 
+def convex_pieces(points):
+    """A closed 2D polygon ``points`` (2, V), in order either way round, as convex pieces: a
+    list of (N, o, exposed), each piece's outward unit normals (m, 2) and offsets (inside where
+    N y < o, in the points' frame) and which of its faces are the polygon's own edges (the
+    others are the diagonals between pieces, which a push must not go through). Ear clipping
+    into triangles, then neighbouring pieces merged while their union stays convex (Hertel &
+    Mehlhorn 1983): a convex polygon is one piece, an L two. None when the outline crosses
+    itself (no ear left to clip)."""
+    v = np.asarray(points, dtype=float)
+    n = v.shape[1]
+    size = float(np.max(np.ptp(v, axis=1)))
+    eps = 1e-12 * size * size
+
+    def cross(a, b, c):  # > 0: a -> b -> c turns left
+        return (v[0, b] - v[0, a]) * (v[1, c] - v[1, a]) - (v[1, b] - v[1, a]) * (v[0, c] - v[0, a])
+
+    area2 = sum(v[0, k] * v[1, (k + 1) % n] - v[0, (k + 1) % n] * v[1, k] for k in range(n))
+    order = list(range(n)) if area2 > 0 else list(range(n))[::-1]  # counter-clockwise
+    rank = {k: i for i, k in enumerate(order)}
+    loop, pieces = order[:], []
+    while len(loop) > 3:
+        for k in range(len(loop)):
+            a, b, c = loop[k - 1], loop[k], loop[(k + 1) % len(loop)]
+            if cross(a, b, c) <= eps:
+                continue  # a reflex or straight corner is no ear
+            if any(cross(a, b, q) >= -eps and cross(b, c, q) >= -eps and cross(c, a, q) >= -eps
+                   for q in loop if q not in (a, b, c)):
+                continue  # another corner inside (or on) the triangle
+            pieces.append([a, b, c])
+            del loop[k]
+            break
+        else:
+            return None
+    pieces.append(loop)
+
+    def union(P, Q):  # P and Q joined along an edge they share (a, b in P is b, a in Q), or None
+        for i in range(len(P)):
+            a, b = P[i], P[(i + 1) % len(P)]
+            for j in range(len(Q)):
+                if Q[j] == b and Q[(j + 1) % len(Q)] == a:
+                    p_rest = P[i + 1:] + P[:i + 1]  # b ... a
+                    q_rest = Q[j + 1:] + Q[:j + 1]  # a ... b
+                    return p_rest + q_rest[1:-1]
+        return None
+
+    merged = True
+    while merged:
+        merged = False
+        for i in range(len(pieces)):
+            for j in range(i + 1, len(pieces)):
+                u = union(pieces[i], pieces[j])
+                if u is not None and all(cross(u[k - 1], u[k], u[(k + 1) % len(u)]) >= -eps for k in range(len(u))):
+                    pieces[i] = u
+                    del pieces[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    out = []
+    for P in pieces:
+        a, b = v[:, P], v[:, P[1:] + P[:1]]
+        N = np.array([b[1] - a[1], a[0] - b[0]])  # the right-hand normals of counter-clockwise edges: outward
+        length = np.linalg.norm(N, axis=0)
+        keep = length > 1e-12 * size
+        N = (N[:, keep] / length[keep]).T
+        o = np.einsum("ij,ji->i", N, a[:, keep])
+        exposed = np.array([(rank[q] - rank[p]) % n == 1 for p, q in zip(P, P[1:] + P[:1])])[keep]
+        out.append((N, o, exposed))
+    return out
+
+
 def fixed_blocks(case):
     """The convex obstacles a floating body stays out of, as (N, o) half-spaces (inside where
-    N x < o): the case's obstacle boxes and closed convex polygons that neither float nor move
-    (a concave polygon, a wall mesh or file: through the fluid alone)."""
+    N x < o): the case's obstacle boxes and closed polygons that neither float nor move, a
+    concave polygon as its convex pieces (N, o, exposed: ``convex_pieces``) (a wall mesh or
+    file: through the fluid alone)."""
     out = []
     for b in case["obstacle"]:
         if b.get("min") is not None and b.get("floating") is None and b.get("motion") is None:
@@ -783,4 +885,6 @@ def fixed_blocks(case):
             if faces is not None:
                 N, o = faces
                 out.append((N, o + N @ centre))
+            else:  # a concave polygon: its convex pieces, pushed out through its own edges only
+                out.extend(convex_pieces(pts) or [])
     return out
