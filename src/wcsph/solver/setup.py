@@ -36,15 +36,18 @@ def build(case, backend, comm):
     be, m = backend, case["model"]
     h = smoothing_length(case)
     geometry.check_size(case)
-    fluid0, wall0, lo, hi = geometry.build(case)
     ph = case["physics"]
     # Becker & Teschner's stiffness kappa is c0^2 of p = kappa rho0/gamma ((rho/rho0)^gamma - 1)
-    c0 = (math.sqrt(ph["kappa"]) if ph["kappa"] > 0 else ph["speed_of_sound"]) or default_sound_speed(case, fluid0)
+    c0 = math.sqrt(ph["kappa"]) if ph["kappa"] > 0 else ph["speed_of_sound"]
+    fluid0 = None
+    if not c0:  # the default's height and speed are the fluid's as sampled
+        fluid0, wall0, lo, hi = geometry.build(case)
+        c0 = default_sound_speed(case, fluid0)
     w_np, _ = kernel_numpy(m["kernel"], dim, h)
     model = WCSPH(case, be)
     gravity = np.asarray(ph["gravity"], dtype=float)
     column = _column(case, model, c0, h, gravity, w_np)
-    if column is not None:  # a summation density's column at rest: its boxes sampled compressed
+    if fluid0 is None or column is not None:  # a summation density's column: its boxes sampled compressed
         fluid0, wall0, lo, hi = geometry.build(case, column)
     opened = None
     if case["open_boundary"]:  # the buffers' particles join the fluid set, kind > 0
