@@ -13,7 +13,7 @@ def test_a_run_equal_to_the_record_has_its_heights_and_its_delay(delay):
     assert t_ref[0] == 0.0 and t_ref[-1] == pytest.approx(7.0) and np.ptp(piston) == pytest.approx(0.052, abs=1e-3)
     t = np.arange(0.0, 7.0, 0.005)
     levels = {name: 0.31 + np.interp(t - delay, t_ref, eta[name]) for name in CIEM_WAVES}
-    waves, lags = ciem_figures(t, levels)
+    waves, lags, _ = ciem_figures(t, levels)
     assert len(waves) == sum(len(s) for s in CIEM_WAVES.values())
     for name, a, h_run, h_ref, e in waves:
         assert 0.06 < h_ref < 0.08  # the record's waves: about 7 cm

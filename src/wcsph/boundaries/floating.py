@@ -653,10 +653,7 @@ def body_of(key, table, dim, mesh=None, rho0=1000.0):
     if table.get("min") is not None:  # a box: other floating bodies stay out of it
         body.box = (np.asarray(table["min"], dtype=float) - c, np.asarray(table["max"], dtype=float) - c)
     elif table.get("points") is not None:  # a polygon likewise (a concave one as its convex pieces)
-        outline = np.asarray(table["points"], dtype=float).T - c[:, None]
-        body.hull = convex_faces(outline)
-        if body.hull is None:
-            body.pieces = convex_pieces(outline) or []
+        _hold_out(body, np.asarray(table["points"], dtype=float).T - c[:, None])
     elif mesh is not None:
         verts, faces = mesh
         if dim == 3:  # a concave mesh: through the fluid alone
@@ -664,11 +661,16 @@ def body_of(key, table, dim, mesh=None, rho0=1000.0):
         else:  # a 2D mesh: its outline's segments in order
             order = _outline(np.asarray(faces))
             if order is not None:
-                outline = np.asarray(verts, dtype=float)[:, order] - c[:, None]
-                body.hull = convex_faces(outline)
-                if body.hull is None:
-                    body.pieces = convex_pieces(outline) or []
+                _hold_out(body, np.asarray(verts, dtype=float)[:, order] - c[:, None])
     return body
+
+
+def _hold_out(body, outline):
+    """The 2D ``outline`` (about the body's centre) other bodies stay out of: its faces when
+    it is convex, else its convex pieces."""
+    body.hull = convex_faces(outline)
+    if body.hull is None:
+        body.pieces = convex_pieces(outline) or []
 
 
 def _outline(segments):

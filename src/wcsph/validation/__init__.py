@@ -528,11 +528,11 @@ def ciem_figures(t, levels):
     still until the piston starts at 0.925 s) with the record: rows (gauge, wave, run's height,
     record's height, relative difference) for each whole wave of ``CIEM_WAVES``, and per gauge
     the lag [s] of the run's waves behind the record's (the shift that best matches the two
-    series over the compared waves; positive: the run's come late)."""
+    series over the compared waves; positive: the run's come late), and the run's elevations."""
     t_ref, _, ref_eta = ref.ciem_wavemaker()
-    rows, lags = [], {}
+    rows, lags, etas = [], {}, {}
     for name, starts in CIEM_WAVES.items():
-        eta = levels[name] - levels[name][t < 0.9].mean()
+        eta = etas[name] = levels[name] - levels[name][t < 0.9].mean()
         for a in starts:
             keep = (t_ref >= a) & (t_ref < a + 1.0)
             h_run, h_ref = float(np.ptp(np.interp(t_ref[keep], t, eta))), float(np.ptp(ref_eta[name][keep]))
@@ -542,7 +542,7 @@ def ciem_figures(t, levels):
         shifts = np.arange(-250, 251)  # ms
         match = [np.dot(np.interp(fine + 0.001 * L, t, eta), e) for L in shifts]
         lags[name] = 0.001 * float(shifts[int(np.argmax(match))])
-    return rows, lags
+    return rows, lags, etas
 
 
 def ciem_wavemaker(quick, overrides=()):
@@ -566,7 +566,7 @@ def ciem_wavemaker(quick, overrides=()):
             rows = list(csv.DictReader(f))
     t = np.array([float(r["time"]) for r in rows])
     levels = {name: np.array([float(r[name]) for r in rows]) for name in CIEM_WAVES}
-    waves, lags = ciem_figures(t, levels)
+    waves, lags, etas = ciem_figures(t, levels)
     travel = lags["WG2"] - lags["WG1"]
     err = max(max(abs(w[4]) for w in waves) / 0.10, abs(travel) / 0.02)
     detail = ("| gauge | wave | run's height [m] | record's [m] | difference |\n|---|---|---|---|---|\n"
@@ -576,8 +576,7 @@ def ciem_wavemaker(quick, overrides=()):
     t_ref, _, ref_eta = ref.ciem_wavemaker()
     curves = []
     for name in CIEM_WAVES:
-        curves += [(f"{name} SPH", t, levels[name] - levels[name][t < 0.9].mean(), "sim"),
-                   (f"{name} CIEM", t_ref, ref_eta[name], "ref")]
+        curves += [(f"{name} SPH", t, etas[name], "sim"), (f"{name} CIEM", t_ref, ref_eta[name], "ref")]
     return Result("Wave flume, CIEM record (piston, T = 1 s), WCSPH-BI", "largest of height error / 10 % (each "
                   "whole wave at WG1, WG2) and the travel time WG1 -> WG2 against the record's / 0.02 s",
                   "CIEM flume measurements (as DualSPHysics ships them)", err, 1.0, bool(err < 1.0), detail, curves,
