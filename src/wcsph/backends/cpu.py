@@ -314,17 +314,47 @@ class CpuBackend:
         map(I, P, J)."""
         return _make_map_loop(fn) if then is None else _make_fused_map_loop(fn, then)
 
+    #: a tail (``make_tail``) leaves the check to ``check`` (a reduction of its own)
+    fuses_check = False
+
+    def make_tail(self, dim, dtype, fn, walk=None, parts=None):
+        """The step's last map fn(i, I, P) followed, when ``walk`` = (init, pair, finish) is
+        given, by the pass of each particle i of the view F over the set J (each particle's
+        own state and its J neighbours: nothing another particle writes), called as
+        tail(I, P, F, J, G, measure=None); ``measure`` is for a backend that checks there
+        (``fuses_check``). ``parts``: the map and the pass, already made by ``make_map`` and
+        ``make_pass``. Here they run one after the other: a GPU saves a launch by fusing
+        them, a CPU little, and one fastmath loop would let the compiler hand the walk a
+        position that is not the one stored (measured: not bit for bit in float32)."""
+        run_map, run_pass = parts
+
+        def tail(I, P, F=None, J=None, G=None, measure=None):
+            run_map(I, P)
+            if walk is not None:
+                run_pass(F, J, J, P, G)
+
+        return tail
+
     def make_reduce(self, fn):
         """A per-particle function returning (a, b, c) reduced to (sum a, sum b, max c), over
         the particles with ``owned[i]`` when the call passes ``owned`` (a decomposed run)."""
         return _make_reduce_loop(fn)
 
-    def sort(self, pset, grid, drop=None):
+    def sort(self, pset, grid, drop=None, refresh=None):
         """Reorder ``pset`` by cell; drop particles outside the domain. Returns how many
         were dropped. Each field is gathered into a spare array kept from the previous sort
         (``_spare_NAME``), which then becomes the next spare: no allocation per step.
         ``drop``: flags (uint8) of particles to drop as well (a decomposed run's old ghosts
-        and emigrants)."""
+        and emigrants). ``refresh`` = (fn, map, view, P): after the sort, ``map`` (made of
+        fn(i, J, P, rho) by ``make_map``) over ``view(pset)`` with P (a GPU runs fn in the
+        launch that moves the fields)."""
+        dropped = self._sort(pset, grid, drop)
+        if refresh is not None:
+            _, run, view, P = refresh
+            run(view(pset), P)
+        return dropped
+
+    def _sort(self, pset, grid, drop):
         g = grid.view()
         x = pset["x"]
         origin, inv_cell = grid.geometry(x.dtype.type)

@@ -157,6 +157,32 @@ def _place_fields(cell, start, raw, perm, groups, n_in):
                         dst[c, d] = src[c, j]
 
 
+_PLACE_THEN = {}
+
+
+def _place_then(fn):
+    """``_place_fields`` with fn(d, J, P, rho) for each particle placed at d, after its
+    fields (J: a view of the set's sorted fields; rho: the density just moved there): the
+    model's p and V of the step's first evaluation made in the sort's own launch."""
+    if fn not in _PLACE_THEN:
+        @cuda.jit
+        def run(cell, start, raw, perm, groups, n_in, J, P):
+            k = cuda.grid(1)
+            if k < raw.size:
+                d, j = _place(k, cell, start, raw, perm)
+                if d < n_in:
+                    for g in literal_unroll(groups):
+                        for f in range(len(g[0])):
+                            src = g[0][f]
+                            dst = g[1][f]
+                            for c in range(src.shape[0]):
+                                dst[c, d] = src[c, j]
+                    fn(d, J, P, J.rho[d])
+
+        _PLACE_THEN[fn] = run
+    return _PLACE_THEN[fn]
+
+
 @cuda.jit
 def _gather1(src, perm, dst):
     k = cuda.grid(1)
@@ -434,6 +460,90 @@ def _make_fused_map_kernel(fn, then):
     return launch
 
 
+def _make_tail_kernel(dim, fn, walk, zero):
+    """The step's last map fn(i, I, P) and, in the same loop, what the run puts after it
+    (``backend.make_tail``): with ``walk`` = (init, pair, finish), the pass of particle i of
+    the view F over the set J (the wall corrections: each particle's own state and its wall
+    neighbours, nothing another thread writes); with ``measure`` the check of particle i
+    after both, reduced as ``_check_blocks`` reduces it (in the same blocks: one thread per
+    particle), with the next sort's cell ids, histogram and chunk sums."""
+    if walk is None:
+        @cuda.jit(device=True)
+        def after(i, F, J, P, G):
+            pass
+    else:
+        init, pair, finish = walk
+        visit = make_run_visitor(dim, pair, zero)
+
+        @cuda.jit(device=True)
+        def after(i, F, J, P, G):
+            c = F.cell[i]
+            xi = F.x[0, i]
+            yi = F.x[1, i]
+            zi = F.x[2, i] if dim == 3 else zero
+            acc = init(i, F, P)
+            k = G.k
+            kz = k if dim == 3 else 0
+            for oz in range(-kz, kz + 1):
+                for oy in range(-k, k + 1):
+                    cc = c + oy * G.sy + oz * G.sz
+                    acc = visit(i, xi, yi, zi, F, J, J.start[cc - k], J.start[cc + k + 1], P, acc)
+            finish(i, F, P, acc)
+
+    @cuda.jit
+    def run(I, P, F, J, G, measure, origin, inv_cell, nx, ny, nz, ncells, k, is_max, partial, final, counter,
+            cell, count, sums, chunk):
+        tile = cuda.shared.array(THREADS, dtype=np.float64)
+        i = cuda.grid(1)
+        n = I.x.shape[1]
+        if i < n:
+            fn(i, I, P)
+            after(i, F, J, P, G)
+        if measure:  # the same for every thread: the barriers below are reached by all
+            vmax2 = 0.0
+            amax2 = 0.0
+            bad = 0.0
+            outside = 0.0
+            if i < n:
+                s, q, ok = particle_check(I.x, I.v, I.dvdt, i)
+                if ok:
+                    vmax2 = s
+                    amax2 = q
+                else:
+                    bad = 1.0
+                c = _cell_of(I.x, i, origin, inv_cell, nx, ny, nz, ncells, k)
+                if c == ncells:
+                    outside = 1.0
+                cell[i] = c
+                _count(c, count, sums, chunk)
+            b = cuda.blockIdx.x
+            _block_tree(tile, vmax2, True, 0, partial, b)
+            _block_tree(tile, amax2, True, 1, partial, b)
+            _block_tree(tile, bad, False, 2, partial, b)
+            _block_tree(tile, outside, False, 3, partial, b)
+            _finish_if_last(tile, partial, is_max, final, counter)
+
+    def launch(I, P, F=None, J=None, G=None, measure=None):
+        """``measure``: (the particle set of I, its grid) to check in the same launch."""
+        n = I.x.shape[1]
+        if not n:
+            return
+        if F is None:
+            F, J, G = I, I, _unused(np.int8)
+        nb = _blocks(n)
+        if measure is None:
+            run[nb, THREADS](I, P, F, J, G, False, *_no_measure(I.x.dtype))
+            return
+        pset, grid = measure
+        args = _measure_args(pset, grid, nb)
+        run[nb, THREADS](I, P, F, J, G, True, *args)
+        pset.__dict__["_counted"] = (pset["x"], n, grid)
+        pset.__dict__["_measured"] = (pset["x"], n, args[9])
+
+    launch.kernel = run
+    return launch
+
+
 def _make_reduce_kernel(fn):
     @cuda.jit
     def run(I, P, out):
@@ -616,6 +726,53 @@ def _on_device(grid, dt):
     return cache[dt]
 
 
+#: the check's rows: largest |v|^2, largest |a|^2, non-finite particles, particles outside
+CHECK_OPS = ("max", "max", "sum", "sum")
+_NO_MEASURE = {}  # the tail kernel's check arguments when it does not check, per dtype
+
+
+def _measure_args(pset, grid, nb):
+    """The check's arguments after the per-particle arrays, for ``nb`` blocks: the grid's
+    constants (none: every particle counts as inside), the rows' ops, the partial and final
+    results and the last-block counter, then the next sort's cell ids, histogram, chunk sums
+    and chunk length (placeholders without a grid)."""
+    x = pset["x"]
+    dt = np.dtype(x.dtype).type
+    if grid is None:
+        origin = inv = _unused_vector(dt)
+        nx = ny = nz = ncells = k = 2 ** 40  # no cell is out of range
+        cell = count = sums = _unused(np.int64)
+        chunk = 1
+    else:
+        g = grid.view()
+        origin, inv = _on_device(grid, dt)
+        nx, ny, nz, ncells, k = g.nx, g.ny, g.nz, g.ncells, g.k
+        work = pset.__dict__.setdefault("_sort_work", {})
+        count, sums, chunk, _ = _sort_buffers(work, ncells)
+        cell = work.get("cell")
+        if cell is None or cell.shape[0] != pset.n:
+            cell = work["cell"] = cuda.device_array(pset.n, dtype=np.int64)
+    return (origin, inv, nx, ny, nz, ncells, k, _flags(CHECK_OPS), _scratch((4, nb)), _scratch((4, 1)), _counter(),
+            cell, count, sums, chunk)
+
+
+def _unused_vector(dt):
+    key = ("vector", np.dtype(dt).str)
+    if key not in _OPS:
+        _OPS[key] = cuda.to_device(np.zeros(3, dtype=dt))
+    return _OPS[key]
+
+
+def _no_measure(dt):
+    """``_measure_args`` of a tail that does not check (never read)."""
+    key = np.dtype(dt).str
+    if key not in _NO_MEASURE:
+        u = _unused(np.int64)
+        _NO_MEASURE[key] = (_unused_vector(dt), _unused_vector(dt), 1, 1, 1, 1, 1, _flags(CHECK_OPS),
+                            _scratch((4, 1)), _scratch((4, 1)), _counter(), u, u, u, 1)
+    return _NO_MEASURE[key]
+
+
 class CudaBackend:
     name = "cuda"
 
@@ -653,8 +810,18 @@ class CudaBackend:
     def make_reduce(self, fn):
         return _make_reduce_kernel(fn)
 
-    def sort(self, pset, grid, drop=None):
-        """As the CPU backend's ``sort`` (``drop``: a device array of flags)."""
+    #: a tail (``make_tail``) runs the check in its launch when asked
+    fuses_check = True
+
+    def make_tail(self, dim, dtype, fn, walk=None, parts=None):
+        """As the CPU backend's ``make_tail``, in one launch (``parts`` unused); called with
+        ``measure`` = (the set, its grid), the launch also checks the particles after the map
+        and the walk (``check`` then reads its figures, and the next sort its cell counts)."""
+        return _make_tail_kernel(dim, fn, walk, np.dtype(dtype).type(0))
+
+    def sort(self, pset, grid, drop=None, refresh=None):
+        """As the CPU backend's ``sort`` (``drop``: a device array of flags); ``refresh`` in
+        the launch that moves the fields (``_place_then``)."""
         g = grid.view()
         x = pset["x"]
         n = pset.n
@@ -707,15 +874,18 @@ class CudaBackend:
                 dst.append(out.reshape(comps, n_in))
             pset[k] = out
             spare[k] = a
-        if n_in:
-            _place_fields[_blocks(n), THREADS](cell, start_d, raw, perm,
-                                               tuple((tuple(a), tuple(b)) for a, b in groups.values()), n_in)
-        elif n:
-            _place_cells[_blocks(n), THREADS](cell, start_d, raw, perm)
         if dropped:
             for k in scratch:  # written before they are read: only their size matters
                 pset[k] = cuda.device_array(pset[k].shape[:-1] + (n_in,), dtype=pset[k].dtype)
             pset.n = n_in
+        pairs = tuple((tuple(a), tuple(b)) for a, b in groups.values())
+        if n_in and refresh is not None:
+            fn, _, view, P = refresh
+            _place_then(fn)[_blocks(n), THREADS](cell, start_d, raw, perm, pairs, n_in, view(pset), P)
+        elif n_in:
+            _place_fields[_blocks(n), THREADS](cell, start_d, raw, perm, pairs, n_in)
+        elif n:
+            _place_cells[_blocks(n), THREADS](cell, start_d, raw, perm)
         return dropped
 
     def take(self, a, idx):
@@ -761,32 +931,20 @@ class CudaBackend:
     @staticmethod
     def _check(pset, owned, grid):
         """The check's reduction; with every particle checked (``owned`` None) on a known
-        grid, it counts the cells of the set's next sort too (``_counted``)."""
+        grid, it counts the cells of the set's next sort too (``_counted``). A tail that
+        measured these positions (``make_tail``) left its figures: no launch then."""
         n = pset.n
         x = pset["x"]
-        count_cells = grid is not None and owned is None
-        if grid is None:
-            origin = inv = cuda.to_device(np.zeros(3, dtype=x.dtype))
-            nx = ny = nz = ncells = k = 2 ** 40  # no cell is out of range
+        measured = pset.__dict__.pop("_measured", None)
+        if measured is not None and measured[0] is x and measured[1] == n and owned is None:
+            final = measured[2]
         else:
-            g = grid.view()
-            origin, inv = _on_device(grid, np.dtype(x.dtype).type)
-            nx, ny, nz, ncells, k = g.nx, g.ny, g.nz, g.ncells, g.k
-        cell = count = sums = _unused(np.int64)
-        chunk = 1
-        if count_cells:
-            work = pset.__dict__.setdefault("_sort_work", {})
-            count, sums, chunk, _ = _sort_buffers(work, ncells)
-            cell = work.get("cell")
-            if cell is None or cell.shape[0] != n:
-                cell = work["cell"] = cuda.device_array(n, dtype=np.int64)
-        nb = min(REDUCE_BLOCKS, _blocks(n))
-        partial, final = _scratch((4, nb)), _scratch((4, 1))
-        ops = ("max", "max", "sum", "sum")
-        _check_blocks[nb, THREADS](x, pset["v"], pset["dvdt"], origin, inv, nx, ny, nz, ncells, k, _mask(owned),
-                                   owned is not None, _flags(ops), partial, final, _counter(),
-                                   count_cells, cell, count, sums, chunk)
-        if count_cells:
-            pset.__dict__["_counted"] = (x, n, grid)
-        vmax2, amax2, bad, outside = _rows_to_host(final, ops)
+            nb = min(REDUCE_BLOCKS, _blocks(n))
+            args = _measure_args(pset, grid if owned is None else None, nb)
+            _check_blocks[nb, THREADS](x, pset["v"], pset["dvdt"], *args[:7], _mask(owned), owned is not None,
+                                       *args[7:11], grid is not None and owned is None, *args[11:])
+            if grid is not None and owned is None:
+                pset.__dict__["_counted"] = (x, n, grid)
+            final = args[9]
+        vmax2, amax2, bad, outside = _rows_to_host(final, CHECK_OPS)
         return vmax2, amax2, int(bad), int(outside)

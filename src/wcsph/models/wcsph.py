@@ -203,7 +203,12 @@ class WCSPH:
         self.wall_passes = [(p, mk(dim, dtype, p.init, p.pair, p.store)) for p in declared if isinstance(p, WallPass)]
         self.fluid_passes = [mk(dim, dtype, p.init, p.fluid, p.store, pair2=p.wall)
                              for p in declared if isinstance(p, FluidPass)]
-        self.wall_corrections = [mk(dim, dtype, p.init, p.pair, p.store) for p in declared if isinstance(p, WallCorrection)]
+        corrections = [p for p in declared if isinstance(p, WallCorrection)]
+        self.wall_corrections = [mk(dim, dtype, p.init, p.pair, p.store) for p in corrections]
+        #: the wall corrections as one (init, pair, store) of fluid particle i over the walls,
+        #: for an integrator that runs them in its last map's loop (``Integrator.fuse_tail``)
+        self.correction_walk = ((corrections[0].init, corrections[0].pair, corrections[0].store)
+                                if len(corrections) == 1 else None)
         self.load_pass = None
         if self.boundary == "elements":  # the fluid's load on each element (body forces)
             shear = sel["viscous"].build(ctx, q).wall if sel["viscous"].build is not None else []
@@ -411,11 +416,20 @@ class WCSPH:
         if self.continuity:
             self.initialize_map(self.view(fluid, self.fluid_view), P)
 
-    def after_step(self, fluid, walls, P, G, step=1, settle=None):
+    def after_step_due(self, step):
+        """Whether a pass before the wall corrections runs after time step number ``step``."""
+        return any(step % t[0].every == 0 for t in self.after_step_runs)
+
+    def tail_views(self, fluid, walls):
+        """The views the wall corrections run on in an integrator's tail (fluid, walls)."""
+        return self.view(fluid, self.fluid_view), self.view(walls, self.wall_view)
+
+    def after_step(self, fluid, walls, P, G, step=1, settle=None, corrected=False):
         """The passes after time step number ``step``: DPC, XSPH on the positions, shifting,
         CSPM density re-initialisation (every N steps), then the elastic bounce and NBVC-PST
-        of boundary elements (``wall_corrections``). ``settle()``, when given, replaces the
-        refresh of p and V before each pass (a decomposed run also refreshes its ghosts there)."""
+        of boundary elements (``wall_corrections``; ``corrected``: the integrator's last map
+        ran them). ``settle()``, when given, replaces the refresh of p and V before each pass
+        (a decomposed run also refreshes its ghosts there)."""
         due = self.after_step_runs and [t for t in self.after_step_runs if step % t[0].every == 0]
         if due:
             w = self.view(walls, self.wall_view)
@@ -427,7 +441,7 @@ class WCSPH:
                 f = self.view(fluid, self.fluid_view)
                 run(f, f, w, P, G)
                 apply(f, P)
-        if self.wall_corrections and walls.n:
+        if self.wall_corrections and walls.n and not corrected:
             w = self.view(walls, self.wall_view)
             for run in self.wall_corrections:
                 run(self.view(fluid, self.fluid_view), w, w, P, G)

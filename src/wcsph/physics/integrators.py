@@ -311,6 +311,12 @@ class Integrator:
     #: indices of the maps that a derivative evaluation follows: each may run the model's
     #: refresh of p and V in its own loop (``fuse_refresh``)
     refreshing = ()
+    #: indices of the maps that end a step (nothing of the scheme follows them): each may run
+    #: the model's wall corrections and the run's check in its own loop (``fuse_tail``)
+    ending = ()
+    #: the step starts with a derivative evaluation (no map before it): the p and V of the
+    #: step's start may then be made by the sort (``solver.sort``)
+    opens_with_evaluation = False
 
     def __init__(self, backend, dim, continuity, dtype, settings=None):
         self.backend, self.dim, self.continuity, self.dtype = backend, dim, continuity, dtype
@@ -319,6 +325,7 @@ class Integrator:
         self.maps = [backend.make_reduce(f) if k in self.reduce_maps else backend.make_map(f)
                      for k, f in enumerate(self.fns)]
         self.fused = {}  # map index -> the map with the model's refresh in its loop
+        self.tails = {}  # map index -> the map with the wall corrections and the check in its loop
         self.stats = {}  # per-step figures for the log (iterations, residual, ...)
 
     def fuse_refresh(self, refresh_fn):
@@ -328,6 +335,25 @@ class Integrator:
         launch fewer per such map on a GPU, and the same numbers. Not for a decomposed run,
         whose evaluation first refreshes the ghosts' rho from their owners."""
         self.fused = {k: self.backend.make_map(self.fns[k], then=refresh_fn) for k in self.refreshing}
+
+    def fuse_tail(self, walk, walk_pass=None):
+        """Make each map of ``ending`` a tail (``backend.make_tail``): the map, then in its
+        loop the model's wall corrections ``walk`` = (init, pair, store) (or none; compiled
+        as a pass: ``walk_pass``) and, on a backend that fuses it, the run's check.
+        ``end_step`` runs it when the run state allows (``State.tail``): one launch or two
+        fewer per step on a GPU, the same numbers."""
+        self.tails = {k: self.backend.make_tail(self.dim, self.dtype, self.fns[k], walk, (self.maps[k], walk_pass))
+                      for k in self.ending}
+
+    def end_step(self, state, k, P):
+        """Map ``k``, the step's last: as the tail with what the run state asks this step
+        (``State.tail``), else alone."""
+        tail = self.tails.get(k) if self.tails else None
+        args = state.tail() if tail is not None else None
+        if args is None:
+            self.maps[k](state.view(), P)
+        else:
+            tail(state.view(), P, *args)
 
     def map_then_evaluate(self, state, k, P, at, w=None):
         """Map ``k`` over the fluid (with the per-stage coefficients ``w``), then the
@@ -373,9 +399,12 @@ class SymplecticEuler(Integrator):
     order = 1
     stable_cfl, safe_cfl, summation_cfl = 0.05, 0.025, 0.25
 
+    opens_with_evaluation = True
+    ending = (0,)
+
     def step(self, state, P):
         state.evaluate(P)
-        self.maps[0](state.view(), P)
+        self.end_step(state, 0, P)
         return float(P.dt)
 
 
@@ -398,11 +427,13 @@ class Verlet(Integrator):
         self.every = int(self.setting("verlet_euler_interval"))
         self.count = 0
 
+    opens_with_evaluation = True
+    ending = (0, 1)
+
     def step(self, state, P):
-        leapfrog, euler = self.maps
         state.evaluate(P)
         first = self.count == 0 or (self.every > 0 and self.count % self.every == 0)
-        (euler if first else leapfrog)(state.view(), P)
+        self.end_step(state, 1 if first else 0, P)
         self.count += 1
         return float(P.dt)
 
@@ -416,12 +447,13 @@ class SymplecticVerlet(Integrator):
     stable_cfl, safe_cfl = 0.4, 0.25
     evaluations = 2
     refreshing = (0,)  # the predictor
+    opens_with_evaluation = True
+    ending = (1,)  # the corrector
 
     def step(self, state, P):
-        correct = self.maps[1]
         state.evaluate(P)
         self.map_then_evaluate(state, 0, P, at=0.5)
-        correct(state.view(), P)
+        self.end_step(state, 1, P)
         return float(P.dt)
 
 

@@ -2,8 +2,9 @@
 
 A step is the list ``stages``, each a callable of the run state (``solver.state.State``):
 
-1. ``Sort``: the particles by cell (in a decomposed run: migrated, ghosts exchanged);
-2. the step's parameters (``Integrate.parameters``);
+1. the step's parameters (``Integrate.parameters``);
+2. ``Sort``: the particles by cell (in a decomposed run: migrated, ghosts exchanged; with a
+   continuity density, p and V of the step's start made there);
 3. ``InflowBefore``: the open boundaries' buffers kept (cases with open boundaries);
 4. ``Integrate``: the integrator's evaluations and maps (each places the walls on prescribed
    paths at its time: ``solver.walls``);
@@ -49,8 +50,30 @@ def stages(integrator, bodies, open_boundaries, damping=None):
     floating = [MoveBodies(bodies), MoveWalls(bodies)] if bodies.floating else []
     damped = [damping] if damping is not None else []
     walls = [WallsAtStepEnd()] if bodies.prescribed else []
-    return [Sort(), integrate.parameters, *inflow, integrate, *walls, AfterStep(), *outflow, *damped, Advance(),
-            *floating, Check()]
+    refresh = open_boundaries is None and integrator.opens_with_evaluation and integrator.continuity
+    return [integrate.parameters, Sort(refresh), *inflow, integrate, *walls, AfterStep(), *outflow, *damped,
+            Advance(), *floating, Check()]
+
+
+def fuse_tail(state, integrator, bodies, open_boundaries, damping=None):
+    """Let the integrator's last map of a step run the model's wall corrections (the elastic
+    bounce, NBVC-PST) and the check in its own loop where no stage between them changes what
+    they read: the walls stand where the corrections will see them (no prescribed motion), and
+    after the check's own stage nothing moves the fluid (no open boundary, damping zone or
+    periodic wrap). A decomposed run keeps its stages apart (its ghosts are refreshed between
+    them). The check is fused only by a backend that does it in the same launch
+    (``fuses_check``); a step after which one of the model's other after-step passes runs
+    keeps them apart as well (``State.tail``)."""
+    model = state.model
+    if state.par is not None or state.grid.any_periodic:
+        return
+    walk = model.correction_walk if state.walls.n else None
+    if model.wall_corrections and (walk is None or bodies.prescribed):
+        return  # the corrections after the last map, and then the check, stay stages
+    state.tail_walls = walk is not None
+    state.tail_check = (state.backend.fuses_check and open_boundaries is None and damping is None)
+    if state.tail_walls or state.tail_check:
+        integrator.fuse_tail(walk, model.wall_corrections[0] if walk is not None else None)
 
 
 class Simulation:
@@ -76,6 +99,7 @@ class Simulation:
         self.time_step_rule = TimeStep(case["time"], self.cfl, self.integrator, self.model.kinematic_viscosity())
         damping = Damping(self.backend, self.dim, case["damping"]) if case["damping"] else None
         self.stages = stages(self.integrator, self.bodies, self.open, damping)
+        fuse_tail(self.state, self.integrator, self.bodies, self.open, damping)
         self.setup_time = time.perf_counter() - t_setup  # compiles (or loads) the loops
 
     def __getattr__(self, name):  # the run state's fields

@@ -39,6 +39,10 @@ class State:
         self.amax = float(np.linalg.norm(self.gravity))
         self.bad = 0  # fluid particles with a non-finite state after the last step
         self.n_owned = fluid.n  # this rank's own fluid particles after the last step
+        # what the integrator's last map of a step may run in its loop (``tail``), as the
+        # stages allow (``solver.simulation.fuse_tail``); ``corrected``: it ran the walls'
+        self.tail_walls = self.tail_check = self.corrected = False
+        self.fresh = False  # p and V are those of the current density (the sort made them)
         self._placeholders = {"k": backend.to_device(np.zeros((1, 1, 1), dtype=self.dtype)),
                               "w": backend.to_device(np.zeros(1, dtype=self.dtype))}
 
@@ -71,13 +75,28 @@ class State:
         that of the time t + ``at`` dt (dt = ``P.dt``): walls on prescribed paths are placed
         there first; a decomposed run first refreshes its ghosts' state from their owners.
         ``refreshed``: the integrator's map before this evaluation refreshed p and V
-        (``Integrator.fuse_refresh``)."""
+        (``Integrator.fuse_refresh``), as the sort may have at the step's start (``fresh``)."""
         self.evaluations += 1
+        refreshed, self.fresh = refreshed or self.fresh, False
         if self.walls_at is not None:
             self.walls_at(self.t + at * float(P.dt))
         if self.par is not None:
             self.par.update(self.fluid, self.model.exchanged["state"])
         self.model.derivatives(self.fluid, self.walls, P, self.G, self.halo, refreshed)
+
+    def tail(self):
+        """What the integrator's last map of this step runs in its loop besides its own update
+        (``Integrator.end_step``): (F, J, G, measure) with F, J the views of the model's wall
+        corrections (None: none) and ``measure`` (the fluid, the grid) when the check may be
+        made there; None when neither may this step (a pass of the model's after the step
+        comes first)."""
+        if not (self.tail_walls or self.tail_check) or self.model.after_step_due(self.steps + 1):
+            return None
+        measure = (self.fluid, self.grid) if self.tail_check else None
+        if not self.tail_walls:
+            return None, None, None, measure
+        self.corrected = True
+        return (*self.model.tail_views(self.fluid, self.walls), self.G, measure)
 
     def refresh_view(self):
         """The view of the fluid the model's ``refresh_fn`` takes."""

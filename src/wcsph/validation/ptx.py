@@ -52,7 +52,8 @@ def record(case, steps=2):
     from ..backends.cuda import CudaBackend
 
     made = []
-    originals = {k: getattr(CpuBackend, k) for k in ("make_pass", "make_map", "make_reduce")}
+    originals = {k: getattr(CpuBackend, k) for k in ("make_pass", "make_map", "make_reduce", "make_tail", "sort",
+                                                      "fuses_check")}
 
     def recorder(kind, build, launch):
         entry = {"kind": kind, "build": build, "args": None}
@@ -76,7 +77,24 @@ def record(case, steps=2):
     def make_reduce(self, fn):
         return recorder("reduce", lambda: CudaBackend().make_reduce(fn), originals["make_reduce"](self, fn))
 
+    def make_tail(self, dim, dtype, fn, walk=None, parts=None):
+        return recorder("tail", lambda: CudaBackend().make_tail(dim, dtype, fn, walk),
+                        originals["make_tail"](self, dim, dtype, fn, walk, parts))
+
+    placed = {}
+
+    def sort(self, pset, grid, drop=None, refresh=None):
+        dropped = originals["sort"](self, pset, grid, drop, refresh)
+        if refresh is not None and "sort" not in placed:  # the launch that moves the fields and makes p, V
+            fn, _, view, P = refresh
+            placed["sort"] = {"kind": "sort", "build": lambda: _PlaceThen(fn),
+                              "args": (_with_device_starts(view(pset)), P)}
+            made.append(placed["sort"])
+        return dropped
+
     CpuBackend.make_pass, CpuBackend.make_map, CpuBackend.make_reduce = make_pass, make_map, make_reduce
+    # the tails as a backend that checks in them makes them (the CPU then ignores ``measure``)
+    CpuBackend.make_tail, CpuBackend.sort, CpuBackend.fuses_check = make_tail, sort, True
     try:
         sim = Simulation(case, backend="cpu")
         for _ in range(steps):
@@ -85,6 +103,35 @@ def record(case, steps=2):
         for k, v in originals.items():
             setattr(CpuBackend, k, v)
     return [Recorded(e["kind"], e["build"], e["args"]) for e in made if e["args"] is not None]
+
+
+class _PlaceThen:
+    """The sort's launch that also makes p and V (``cuda._place_then``), as a recorded kernel."""
+
+    def __init__(self, fn):
+        from ..backends import cuda as cb
+
+        self.kernel = cb._place_then(fn)
+
+
+def _kernel_args(r, dtype, dim):
+    """The CUDA kernel's arguments for a recorded call of the CPU backend's."""
+    if r.kind == "reduce":
+        return r.args[:2] + (np.zeros((3, 1)),)
+    i64 = np.zeros(4, dtype=np.int64)
+    n = np.int64(4)
+    if r.kind == "sort":
+        x = np.zeros((dim, 4), dtype=dtype)
+        f = np.zeros(4, dtype=dtype)
+        return (i64, i64, i64, i64, (((x, f[None]), (x, f[None])), ((i64[None],), (i64[None],))), n) + r.args
+    if r.kind == "tail":  # (I, P[, F, J, G]) and the check's arguments
+        I, P = r.args[:2]
+        F, J, G = r.args[2:5] if len(r.args) >= 5 and r.args[2] is not None else (I, I, np.zeros(1, dtype=np.int8))
+        f = np.zeros(3, dtype=dtype)
+        part = np.zeros((4, 2))
+        return (I, P, F, J, G, True, f, f, n, n, n, n, n, np.zeros(4, dtype=np.int8), part, part[:, :1],
+                i64[:1], i64, i64, i64, n)
+    return r.args
 
 
 def _backend_kernels(dtype, dim):
@@ -148,9 +195,7 @@ def compile_case(case, cc=(9, 0), steps=2, log=None):
     for name, kernel, args in _backend_kernels(dtype, case["dim"]):
         compile_one(name, kernel, args)
     for k, r in enumerate(rec):
-        launch = r.build()
-        args = r.args if r.kind != "reduce" else r.args[:2] + (np.zeros((3, 1)),)
-        compile_one(f"{r.kind} {k}", launch.kernel, args)
+        compile_one(f"{r.kind} {k}", r.build().kernel, _kernel_args(r, dtype, case["dim"]))
     return done
 
 
