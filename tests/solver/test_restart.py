@@ -55,6 +55,11 @@ def test_restart_is_bit_for_bit(name, integrator, tmp_path):
     first.run(output=tmp_path / "split", progress=False)
     meta, arrays = Simulation.read_checkpoint(tmp_path / "split")
     assert meta["steps"] == 7 and meta["t"] < meta_w["t"]
+    # a decomposed run's checkpoint lacks the spare arrays of symplectic Verlet's predictor
+    # (``Integrator.fuse_first``): scratch, so only their size matters to the restart
+    spares = [k for k in arrays if k.endswith("_spare")]
+    assert bool(spares) == (integrator == "symplectic_verlet" and name.endswith("_bi"))
+    arrays = {k: a for k, a in arrays.items() if k not in spares}
     second = Simulation(_case(name, integrator))
     second.restore(meta, arrays)
     second.run(output=tmp_path / "split", progress=False)

@@ -247,6 +247,20 @@ def _make_fused_map_loop(fn, then):
     return call
 
 
+def _then_after(run_pass, then):
+    @njit(parallel=True, fastmath=True, cache=True)
+    def run(S, R, P):
+        for i in prange(S.x.shape[1]):
+            then(i, S, R, P)
+
+    def call(I, J1, J2, P, G, S, R):
+        run_pass(I, J1, J2, P, G)
+        with _threads_for(S.x.shape[1]):
+            run(S, R, P)
+
+    return call
+
+
 #: ``owned`` of a process that holds every particle it reduces over (no ghost copies)
 EVERY = np.zeros(0, dtype=np.uint8)
 
@@ -283,12 +297,21 @@ class CpuBackend:
         return np.asarray(a)
 
     def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False,
-                  periodic=None):
+                  periodic=None, then=None, parts=None):
         """The compiled loop of one pass. ``cache=False`` for passes whose set or parameter
         types live outside the package (Numba's cache index of the loop is shared by all its
         closures and must unpickle in every process). ``branchless``: a performance choice
         of the pass (see ``walk.make_run_visitor``); the result is the same. ``periodic``:
-        the grid's periodic axes (a flag per axis)."""
+        the grid's periodic axes (a flag per axis).
+
+        ``then``: then(i, S, R, P) for each particle after its ``finish``, called as
+        pass(I, J1, J2, P, G, S, R); it may write only what no particle of the pass reads.
+        Here a loop of its own after the pass (``parts``: the pass without it, already
+        made): a GPU saves a launch by fusing them, a CPU little, and a compiler that sees
+        ``finish``'s stores and ``then``'s loads in one fastmath loop may reassociate
+        across them."""
+        if then is not None:
+            return _then_after(parts, then)
         use2 = pair2 is not None
         return _make_pass_loop(dim, init, pair1, pair2 if use2 else pair1, finish, use2,
                                np.dtype(dtype).type(0), cache, branchless, periodic)

@@ -374,56 +374,63 @@ def _wrap(x, lo, length, inv_cell, origin, k, real, axes):
             x[a, i] = xa
 
 
-def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None):
-    """The one CUDA neighbour loop, the same walk as the CPU backend's, one thread per i."""
+def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None, then=None):
+    """The one CUDA neighbour loop, the same walk as the CPU backend's, one thread per i.
+    ``then``: then(i, S, R, P) after i's ``finish``, in the same thread (launched with S and
+    R after the pass's arguments; a pass without it takes only its own)."""
     visit1 = make_run_visitor(dim, pair1, zero)
     visit2 = make_run_visitor(dim, pair2, zero)
     if periodic is not None and any(periodic):
         walk = make_periodic_walk(dim, visit1, visit2, use2, zero, periodic)
 
-        @cuda.jit
-        def run_periodic(I, J1, J2, P, G):
-            i = cuda.grid(1)
-            if i >= I.x.shape[1]:
-                return
+        @cuda.jit(device=True)
+        def body(i, I, J1, J2, P, G):
             zi = I.x[2, i] if dim == 3 else zero
             acc = walk(i, I.x[0, i], I.x[1, i], zi, I.cell[i], I, J1, J2, P, G, init(i, I, P))
             finish(i, I, P, acc)
+    else:
+        @cuda.jit(device=True)
+        def body(i, I, J1, J2, P, G):
+            c = I.cell[i]
+            xi = I.x[0, i]
+            yi = I.x[1, i]
+            zi = I.x[2, i] if dim == 3 else zero
+            acc = init(i, I, P)
+            k = G.k
+            kz = k if dim == 3 else 0
+            for oz in range(-kz, kz + 1):
+                for oy in range(-k, k + 1):
+                    cc = c + oy * G.sy + oz * G.sz
+                    acc = visit1(i, xi, yi, zi, I, J1, J1.start[cc - k], J1.start[cc + k + 1], P, acc)
+                    if use2:
+                        acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - k], J2.start[cc + k + 1], P, acc)
+            finish(i, I, P, acc)
 
-        def launch_periodic(I, J1, J2, P, G):
+    if then is None:
+        @cuda.jit
+        def run(I, J1, J2, P, G):
+            i = cuda.grid(1)
+            if i < I.x.shape[1]:
+                body(i, I, J1, J2, P, G)
+
+        def launch(I, J1, J2, P, G):
             n = I.x.shape[1]
             if n:
-                run_periodic[_blocks(n), THREADS](I, J1, J2, P, G)
+                run[_blocks(n), THREADS](I, J1, J2, P, G)
+    else:
+        @cuda.jit
+        def run(I, J1, J2, P, G, S, R):
+            i = cuda.grid(1)
+            if i < I.x.shape[1]:
+                body(i, I, J1, J2, P, G)
+                then(i, S, R, P)
 
-        launch_periodic.kernel = run_periodic  # what ``validation.ptx`` compiles
-        return launch_periodic
+        def launch(I, J1, J2, P, G, S, R):
+            n = I.x.shape[1]
+            if n:
+                run[_blocks(n), THREADS](I, J1, J2, P, G, S, R)
 
-    @cuda.jit
-    def run(I, J1, J2, P, G):
-        i = cuda.grid(1)
-        if i >= I.x.shape[1]:
-            return
-        c = I.cell[i]
-        xi = I.x[0, i]
-        yi = I.x[1, i]
-        zi = I.x[2, i] if dim == 3 else zero
-        acc = init(i, I, P)
-        k = G.k
-        kz = k if dim == 3 else 0
-        for oz in range(-kz, kz + 1):
-            for oy in range(-k, k + 1):
-                cc = c + oy * G.sy + oz * G.sz
-                acc = visit1(i, xi, yi, zi, I, J1, J1.start[cc - k], J1.start[cc + k + 1], P, acc)
-                if use2:
-                    acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - k], J2.start[cc + k + 1], P, acc)
-        finish(i, I, P, acc)
-
-    def launch(I, J1, J2, P, G):
-        n = I.x.shape[1]
-        if n:
-            run[_blocks(n), THREADS](I, J1, J2, P, G)
-
-    launch.kernel = run
+    launch.kernel = run  # what ``validation.ptx`` compiles
     return launch
 
 
@@ -783,13 +790,14 @@ class CudaBackend:
         return a.copy_to_host() if hasattr(a, "copy_to_host") else np.asarray(a)
 
     def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False,
-                  periodic=None):
+                  periodic=None, then=None, parts=None):
         """Same interface as the CPU backend; ``cache`` has no effect (kernels compile per
         process), nor ``branchless`` (a thread that skips a pair frees its warp's lane: the
-        branch is the faster form on a GPU)."""
+        branch is the faster form on a GPU); ``then`` runs in the pass's own launch
+        (``parts`` unused)."""
         use2 = pair2 is not None
         return _make_pass_kernel(dim, init, pair1, pair2 if use2 else pair1, finish, use2,
-                                 np.dtype(dtype).type(0), periodic)
+                                 np.dtype(dtype).type(0), periodic, then)
 
     def wrap(self, pset, grid):
         if not grid.any_periodic or not pset.n:

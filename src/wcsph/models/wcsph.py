@@ -235,6 +235,10 @@ class WCSPH:
         self.interaction = mk(dim, dtype, s["init9"], compose(*fluid), s["finalize"],
                               pair2=compose(*walls) if walls else None,
                               branchless=dim == 2 and self.boundary == "elements")
+        self._interaction_parts = (dim, dtype, s["init9"], compose(*fluid), s["finalize"],
+                                   compose(*walls) if walls else None, dim == 2 and self.boundary == "elements")
+        #: the fields ``refresh_fn`` writes
+        self.refreshed = ("p", "vol") + (("pr",) if "pr" in implied else ()) + (("c",) if self.needs_c else ())
 
         if self.boundary == "particles" and walls:  # the fluid's load on each wall particle
             self.load_pass = mk(dim, dtype, *make_particle_loads(ctx, compose(*walls)))
@@ -352,13 +356,35 @@ class WCSPH:
         return self._placeholders[name]
 
     # ------------------------------------------------------------------ per evaluation
-    def derivatives(self, fluid, walls, P, G, halo=None, refreshed=False):
+    def interaction_then(self, then):
+        """The interaction pass with then(i, S, R, P) in its loop after each particle's
+        derivatives (``backend.make_pass``'s ``then``), called with S and R after the pass's
+        own arguments (``derivatives``'s ``then``)."""
+        dim, dtype, init, pair1, finish, pair2, branchless = self._interaction_parts
+        return self.backend.make_pass(dim, dtype, init, pair1, finish, pair2=pair2, branchless=branchless,
+                                      periodic=self.periodic, then=then, parts=self.interaction)
+
+    def add_spares(self, fluid):
+        """A spare array beside each field ``refresh_fn`` writes (``spare_view``); returns the
+        (field, spare) pairs."""
+        for k in self.refreshed:
+            fluid.add(k + "_spare", "scalar", self.dtype, self.backend, scratch=True)
+        return tuple((k, k + "_spare") for k in self.refreshed)
+
+    def spare_view(self, fluid):
+        """The view ``refresh_fn`` takes, with the spare arrays of ``add_spares`` in place of
+        the fields it writes."""
+        return self.view(fluid, self.fluid_view)._replace(**{k: fluid[k + "_spare"] for k in self.refreshed})
+
+    def derivatives(self, fluid, walls, P, G, halo=None, refreshed=False, then=None):
         """Drho/Dt (continuity) or rho (summation), and Dv/Dt of every fluid particle.
         ``halo`` (a decomposed run's ``parallel.Halo``): after each pass whose output a later
         pass reads of a neighbour, the ghosts' (or the walls') copies of it are refreshed
         from their owners, so that one kernel support of ghosts is enough. ``refreshed``:
         p and V are already those of the current rho (the integrator's last map ran
-        ``refresh_fn``), so the evaluation starts with the walls."""
+        ``refresh_fn``), so the evaluation starts with the walls. ``then`` = (interaction,
+        S, R): that interaction pass (``interaction_then``) instead of the model's, with its
+        map's views."""
         f = self.view(fluid, self.fluid_view)
         w = self.view(walls, self.wall_view)
         if self.continuity:
@@ -372,7 +398,11 @@ class WCSPH:
             w = self._wall_passes(walls, f, w, P, G, halo)
         for run in self.fluid_passes:
             run(f, f, w, P, G)
-        self.interaction(f, f, w, P, G)
+        if then is None:
+            self.interaction(f, f, w, P, G)
+        else:
+            run, S, R = then
+            run(f, f, w, P, G, S, R)
 
     def _wall_passes(self, walls, f, w, P, G, halo=None, loads=False):
         """The declared wall passes (those made before the loads, with ``loads``), each

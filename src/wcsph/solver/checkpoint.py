@@ -78,9 +78,15 @@ def restore(state, integrator, open_boundaries, meta, arrays, source="checkpoint
                         f"(case {meta['case'].get('name')!r}); restart it with the case it was written by")
     be, fluid, par = state.backend, state.fluid, state.par
     for k in fluid.per_particle():
-        if k not in arrays and k != "owned":
+        if k not in arrays and k != "owned" and k not in fluid.scratch:
             raise CaseError(f"{source}: the checkpoint lacks the fluid field {k!r}")
     fluid.arrays.pop("owned", None)
+    # a scratch field the checkpoint lacks (a decomposed run has no spare arrays for the
+    # predictor, ``Integrator.fuse_first``) is written before it is read: only its size matters
+    n = int(arrays["x"].shape[1])
+    for k in fluid.per_particle():
+        if k not in arrays and k != "owned":
+            arrays[k] = np.zeros(fluid[k].shape[:-1] + (n,), dtype=fluid[k].dtype)
     if par is not None:  # any number of ranks: each keeps its own of the whole
         mine = par.split(arrays["x"])
         arrays = {k: a[..., mine] for k, a in arrays.items()}

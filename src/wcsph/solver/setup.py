@@ -81,6 +81,8 @@ def build(case, backend, comm):
     fluid["id"] = be.to_device(ids)
     if kind is not None:
         fluid["kind"] = be.to_device(kind)  # 0 fluid, 1 + k the buffer of open_boundary[k]
+    if par is None:
+        integrator.fuse_first(model, fluid)
 
     body = wall0.pop("body")
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,

@@ -70,19 +70,27 @@ class State:
         """The model parameters for a step of size ``dt`` from the current time."""
         return self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t), self.vmax)
 
-    def evaluate(self, P, at=0.0, refreshed=False):
+    def swap(self, pairs):
+        """Each (a, b) of ``pairs``: the fluid's arrays a and b trade names."""
+        f = self.fluid
+        for a, b in pairs:
+            f[a], f[b] = f[b], f[a]
+
+    def evaluate(self, P, at=0.0, refreshed=False, then=None):
         """The model's derivatives at the current state (called by the integrator), which is
         that of the time t + ``at`` dt (dt = ``P.dt``): walls on prescribed paths are placed
         there first; a decomposed run first refreshes its ghosts' state from their owners.
         ``refreshed``: the integrator's map before this evaluation refreshed p and V
-        (``Integrator.fuse_refresh``), as the sort may have at the step's start (``fresh``)."""
+        (``Integrator.fuse_refresh``), as the sort may have at the step's start (``fresh``).
+        ``then``: the interaction pass to run instead of the model's, with its views
+        (``Integrator.fuse_first``)."""
         self.evaluations += 1
         refreshed, self.fresh = refreshed or self.fresh, False
         if self.walls_at is not None:
             self.walls_at(self.t + at * float(P.dt))
         if self.par is not None:
             self.par.update(self.fluid, self.model.exchanged["state"])
-        self.model.derivatives(self.fluid, self.walls, P, self.G, self.halo, refreshed)
+        self.model.derivatives(self.fluid, self.walls, P, self.G, self.halo, refreshed, then)
 
     def tail(self):
         """What the integrator's last map of this step runs in its loop besides its own update

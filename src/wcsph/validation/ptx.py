@@ -66,10 +66,12 @@ def record(case, steps=2):
 
         return call
 
-    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False, periodic=None):
-        launch = originals["make_pass"](self, dim, dtype, init, pair1, finish, pair2, cache, branchless, periodic)
+    def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False, periodic=None,
+                  then=None, parts=None):
+        launch = originals["make_pass"](self, dim, dtype, init, pair1, finish, pair2, cache, branchless, periodic,
+                                        then, parts)
         return recorder("pass", lambda: CudaBackend().make_pass(dim, dtype, init, pair1, finish, pair2,
-                                                                periodic=periodic), launch)
+                                                                periodic=periodic, then=then), launch)
 
     def make_map(self, fn, then=None):
         return recorder("map", lambda: CudaBackend().make_map(fn, then), originals["make_map"](self, fn, then))
