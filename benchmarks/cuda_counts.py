@@ -1,5 +1,7 @@
 """Per step of the CUDA backend, counted in Numba's CUDA simulator (no GPU needed): kernel
-launches (by kernel), device allocations, host-to-device and device-to-host copies. These
+launches (by kernel) and the scalars their arguments make (numba-cuda's dispatcher converts
+each in Python, a host cost per launch), device allocations, host-to-device and
+device-to-host copies. These
 are what bind a small or medium GPU step (each launch costs microseconds of host time, each
 device-to-host copy a synchronisation), so they are counted where no GPU is lent.
 
@@ -51,8 +53,33 @@ def main(argv=None):
 
         setattr(owner, name, counted)
 
-    wrap(kernel.FakeCUDAKernel, "__call__", lambda args: ("device function " if args[0]._device else "launch ")
-         + getattr(args[0].fn, "__qualname__", "?").replace(".<locals>.", ".").replace(".<locals>", ""))
+    def leaves(a):
+        """The scalars numba-cuda passes for a kernel argument: an array as its meminfo,
+        parent, size, item size, data pointer, shape and strides (5 + 2 ndim), a tuple or a
+        view as its members'."""
+        if isinstance(a, tuple):
+            return sum(leaves(b) for b in a)
+        if hasattr(a, "shape") and hasattr(a, "strides"):
+            return 5 + 2 * len(a.shape)
+        return 1
+
+    def kname(k):
+        return getattr(k.fn, "__qualname__", "?").replace(".<locals>.", ".").replace(".<locals>", "")
+
+    original_call = kernel.FakeCUDAKernel.__call__
+
+    def call(k, *args, **kw):
+        if counting[0]:
+            if k._device:
+                counts["device function " + kname(k)] += 1
+            else:
+                counts["launch " + kname(k)] += 1
+                n = leaves(args)
+                counts["kernel arguments"] += n
+                counts["_largest"] = max(counts["_largest"], n)
+        return original_call(k, *args, **kw)
+
+    kernel.FakeCUDAKernel.__call__ = call
     wrap(devicearray.FakeCUDAArray, "copy_to_host", "device->host copy")
     import numba.cuda as cuda
 
@@ -80,12 +107,14 @@ def main(argv=None):
     advance(a.steps)
     counting[0] = False
     launches = sum(v for k, v in counts.items() if k.startswith("launch"))
+    largest = counts.pop("_largest", 0)
     if a.json:
-        print(json.dumps({"launches": launches / a.steps, "fluid": sim.n_fluid(),
+        print(json.dumps({"launches": launches / a.steps, "fluid": sim.n_fluid(), "largest launch": largest,
                           **{k: v / a.steps for k, v in counts.items() if not k.startswith(("launch", "device f"))}}))
         return 0
     print(f"{a.case}, dp = {a.dp}, {sim.n_fluid()} fluid particles, per step over {a.steps} steps:")
     print(f"  kernel launches: {launches / a.steps:g}")
+    print(f"  kernel arguments (numba-cuda's scalars), the largest launch: {largest}")
     for k, v in sorted(counts.items()):
         if k.startswith("device function"):  # the simulator calls them as kernels; a GPU inlines them
             continue

@@ -407,30 +407,86 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None
             finish(i, I, P, acc)
 
     if then is None:
-        @cuda.jit
-        def run(I, J1, J2, P, G):
-            i = cuda.grid(1)
-            if i < I.x.shape[1]:
-                body(i, I, J1, J2, P, G)
-
-        def launch(I, J1, J2, P, G):
-            n = I.x.shape[1]
-            if n:
-                run[_blocks(n), THREADS](I, J1, J2, P, G)
+        @cuda.jit(device=True)
+        def after(i, S, R, P):
+            pass
     else:
-        @cuda.jit
-        def run(I, J1, J2, P, G, S, R):
-            i = cuda.grid(1)
-            if i < I.x.shape[1]:
-                body(i, I, J1, J2, P, G)
-                then(i, S, R, P)
+        after = then
 
-        def launch(I, J1, J2, P, G, S, R):
-            n = I.x.shape[1]
-            if n:
-                run[_blocks(n), THREADS](I, J1, J2, P, G, S, R)
+    # Kernels by the views they take: a view passed twice costs numba-cuda's dispatcher its
+    # arrays twice (about a hundred scalars for the fluid's), so J1 is left out when it is I
+    # (the fluid's own passes), J2 when the pass has no second set, S and R without ``then``.
+    @cuda.jit
+    def self1(I, P, G):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            body(i, I, I, I, P, G)
 
-    launch.kernel = run  # what ``validation.ptx`` compiles
+    @cuda.jit
+    def other1(I, J1, P, G):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            body(i, I, J1, J1, P, G)
+
+    @cuda.jit
+    def self2(I, J2, P, G):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            body(i, I, I, J2, P, G)
+
+    @cuda.jit
+    def other2(I, J1, J2, P, G):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            body(i, I, J1, J2, P, G)
+
+    @cuda.jit
+    def self1_then(I, P, G, S, R):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            body(i, I, I, I, P, G)
+            after(i, S, R, P)
+
+    @cuda.jit
+    def other1_then(I, J1, P, G, S, R):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            body(i, I, J1, J1, P, G)
+            after(i, S, R, P)
+
+    @cuda.jit
+    def self2_then(I, J2, P, G, S, R):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            body(i, I, I, J2, P, G)
+            after(i, S, R, P)
+
+    @cuda.jit
+    def other2_then(I, J1, J2, P, G, S, R):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            body(i, I, J1, J2, P, G)
+            after(i, S, R, P)
+
+    kernels = {(True, False, False): self1, (False, False, False): other1, (True, True, False): self2,
+               (False, True, False): other2, (True, False, True): self1_then, (False, False, True): other1_then,
+               (True, True, True): self2_then, (False, True, True): other2_then}
+
+    def kernel_for(I, J1, J2, P, G, S=None, R=None):
+        """The kernel for these views and its arguments."""
+        same = J1 is I
+        args = (I,) + (() if same else (J1,)) + ((J2,) if use2 else ()) + (P, G)
+        if then is not None:
+            args += (S, R)
+        return kernels[(same, use2, then is not None)], args
+
+    def launch(I, J1, J2, P, G, S=None, R=None):
+        n = I.x.shape[1]
+        if n:
+            run, args = kernel_for(I, J1, J2, P, G, S, R)
+            run[_blocks(n), THREADS](*args)
+
+    launch.kernel_for = kernel_for  # what ``validation.ptx`` compiles
     return launch
 
 
