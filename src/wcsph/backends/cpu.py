@@ -249,14 +249,14 @@ def _make_fused_map_loop(fn, then):
 
 def _then_after(run_pass, then):
     @njit(parallel=True, fastmath=True, cache=True)
-    def run(S, R, P):
-        for i in prange(S.x.shape[1]):
-            then(i, S, R, P)
+    def run(I, S, R, P):
+        for i in prange(I.x.shape[1]):
+            then(i, I, S, R, P)
 
     def call(I, J1, J2, P, G, S, R):
         run_pass(I, J1, J2, P, G)
-        with _threads_for(S.x.shape[1]):
-            run(S, R, P)
+        with _threads_for(I.x.shape[1]):
+            run(I, S, R, P)
 
     return call
 
@@ -304,7 +304,7 @@ class CpuBackend:
         of the pass (see ``walk.make_run_visitor``); the result is the same. ``periodic``:
         the grid's periodic axes (a flag per axis).
 
-        ``then``: then(i, S, R, P) for each particle after its ``finish``, called as
+        ``then``: then(i, I, S, R, P) for each particle after its ``finish``, called as
         pass(I, J1, J2, P, G, S, R); it may write only what no particle of the pass reads.
         Here a loop of its own after the pass (``parts``: the pass without it, already
         made): a GPU saves a launch by fusing them, a CPU little, and a compiler that sees

@@ -376,8 +376,8 @@ def _wrap(x, lo, length, inv_cell, origin, k, real, axes):
 
 def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None, then=None):
     """The one CUDA neighbour loop, the same walk as the CPU backend's, one thread per i.
-    ``then``: then(i, S, R, P) after i's ``finish``, in the same thread (launched with S and
-    R after the pass's arguments; a pass without it takes only its own)."""
+    ``then``: then(i, I, S, R, P) after i's ``finish``, in the same thread (launched with S
+    and R after the pass's arguments; a pass without it takes only its own)."""
     visit1 = make_run_visitor(dim, pair1, zero)
     visit2 = make_run_visitor(dim, pair2, zero)
     if periodic is not None and any(periodic):
@@ -408,7 +408,7 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None
 
     if then is None:
         @cuda.jit(device=True)
-        def after(i, S, R, P):
+        def after(i, I, S, R, P):
             pass
     else:
         after = then
@@ -445,28 +445,28 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None
         i = cuda.grid(1)
         if i < I.x.shape[1]:
             body(i, I, I, I, P, G)
-            after(i, S, R, P)
+            after(i, I, S, R, P)
 
     @cuda.jit
     def other1_then(I, J1, P, G, S, R):
         i = cuda.grid(1)
         if i < I.x.shape[1]:
             body(i, I, J1, J1, P, G)
-            after(i, S, R, P)
+            after(i, I, S, R, P)
 
     @cuda.jit
     def self2_then(I, J2, P, G, S, R):
         i = cuda.grid(1)
         if i < I.x.shape[1]:
             body(i, I, I, J2, P, G)
-            after(i, S, R, P)
+            after(i, I, S, R, P)
 
     @cuda.jit
     def other2_then(I, J1, J2, P, G, S, R):
         i = cuda.grid(1)
         if i < I.x.shape[1]:
             body(i, I, J1, J2, P, G)
-            after(i, S, R, P)
+            after(i, I, S, R, P)
 
     kernels = {(True, False, False): self1, (False, False, False): other1, (True, True, False): self2,
                (False, True, False): other2, (True, False, True): self1_then, (False, False, True): other1_then,

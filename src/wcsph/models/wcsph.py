@@ -148,6 +148,11 @@ def _stores(ctx, eos, continuity, consistent, needs_pr, corrected, sound):
                 init9=init9, finalize=finalize)
 
 
+#: the fields ``refresh_fn`` of a particle reads and writes: a view of the spare arrays the
+#: predictor run in a pass's loop writes p and V to (``spare_view``)
+RefreshView = namedtuple("RefreshView", "p pr vol m c")
+
+
 class WCSPH:
 
     def __init__(self, case, backend):
@@ -357,9 +362,9 @@ class WCSPH:
 
     # ------------------------------------------------------------------ per evaluation
     def interaction_then(self, then):
-        """The interaction pass with then(i, S, R, P) in its loop after each particle's
-        derivatives (``backend.make_pass``'s ``then``), called with S and R after the pass's
-        own arguments (``derivatives``'s ``then``)."""
+        """The interaction pass with then(i, I, S, R, P) in its loop after each particle's
+        derivatives (``backend.make_pass``'s ``then``; I the pass's fluid view), called with
+        S and R after the pass's own arguments (``derivatives``'s ``then``)."""
         dim, dtype, init, pair1, finish, pair2, branchless = self._interaction_parts
         return self.backend.make_pass(dim, dtype, init, pair1, finish, pair2=pair2, branchless=branchless,
                                       periodic=self.periodic, then=then, parts=self.interaction)
@@ -372,9 +377,16 @@ class WCSPH:
         return tuple((k, k + "_spare") for k in self.refreshed)
 
     def spare_view(self, fluid):
-        """The view ``refresh_fn`` takes, with the spare arrays of ``add_spares`` in place of
-        the fields it writes."""
-        return self.view(fluid, self.fluid_view)._replace(**{k: fluid[k + "_spare"] for k in self.refreshed})
+        """A ``RefreshView`` (what ``refresh_fn`` reads and writes) with the spare arrays of
+        ``add_spares`` for the fields it writes."""
+        a = fluid.arrays
+
+        def pick(k):
+            if k in self.refreshed:
+                return a[k + "_spare"]
+            return a[k] if k in a else self._placeholder(k)
+
+        return RefreshView(*[pick(k) for k in RefreshView._fields])
 
     def derivatives(self, fluid, walls, P, G, halo=None, refreshed=False, then=None):
         """Drho/Dt (continuity) or rho (summation), and Dv/Dt of every fluid particle.

@@ -26,6 +26,8 @@ from ..errors import IntegrationError
 from .registry import NONNEG, POS, UNIT_OPEN, Param, one_of
 
 StateView = namedtuple("StateView", "x v dvdt rho drhodt p m x_n v_n rho_n dv_t drho_t k w")
+#: the saved-state arrays, where the predictor run in a pass's loop writes (``make_predict_aside``)
+AsideView = namedtuple("AsideView", "x_n v_n rho_n")
 
 
 # ------------------------------------------------------------------------------ shared
@@ -140,21 +142,22 @@ def make_symplectic_verlet(dim, continuity, dtype):
 
 
 def make_predict_aside(dim, continuity, dtype):
-    """The symplectic Verlet predictor writing the predicted state into the saved-state arrays,
-    x_n <- x + dt/2 v, v_n <- v + dt/2 a, rho_n <- rho + dt/2 Drho, and leaving x, v, rho as
-    they are: what the loop of a pass can run while its other particles still read x, v and
-    rho; the arrays then swap names (``SymplecticVerlet.fuse_first``), which gives the
+    """The symplectic Verlet predictor writing the predicted state into the saved-state arrays
+    (``A``, an ``AsideView``), x_n <- x + dt/2 v, v_n <- v + dt/2 a, rho_n <- rho + dt/2 Drho,
+    with x, v, a, rho and Drho read from the pass's own view I and left as they are: what the
+    loop of a pass can run while its other particles still read x, v and rho; the arrays then
+    swap names (``SymplecticVerlet.fuse_first``), which gives the
     predictor's state with the same arithmetic."""
     half = dtype(0.5)
 
     @register_jitable
-    def predict_aside(i, I, P):
+    def predict_aside(i, I, A, P):
         h = P.dt * half
         for d in range(dim):
-            I.x_n[d, i] = I.x[d, i] + h * I.v[d, i]
-            I.v_n[d, i] = I.v[d, i] + h * I.dvdt[d, i]
+            A.x_n[d, i] = I.x[d, i] + h * I.v[d, i]
+            A.v_n[d, i] = I.v[d, i] + h * I.dvdt[d, i]
         if continuity:
-            I.rho_n[i] = I.rho[i] + h * I.drhodt[i]
+            A.rho_n[i] = I.rho[i] + h * I.drhodt[i]
 
     return predict_aside
 
@@ -489,9 +492,9 @@ class SymplecticVerlet(Integrator):
         refresh = model.refresh_fn
 
         @register_jitable
-        def predict(i, S, R, P):
-            aside(i, S, P)
-            refresh(i, R, P, S.rho_n[i])
+        def predict(i, I, A, R, P):
+            aside(i, I, A, P)
+            refresh(i, R, P, A.rho_n[i])
 
         self.first = model.interaction_then(predict)
         self.swapped = (("x", "x_n"), ("v", "v_n"), ("rho", "rho_n")) + model.add_spares(fluid)
@@ -501,7 +504,9 @@ class SymplecticVerlet(Integrator):
             state.evaluate(P)
             self.map_then_evaluate(state, 0, P, at=0.5)
         else:
-            state.evaluate(P, then=(self.first, state.view(), state.model.spare_view(state.fluid)))
+            f = state.fluid
+            state.evaluate(P, then=(self.first, AsideView(f["x_n"], f["v_n"], f["rho_n"]),
+                                    state.model.spare_view(f)))
             state.swap(self.swapped)
             state.evaluate(P, at=0.5, refreshed=True)
         self.end_step(state, 1, P)
