@@ -374,111 +374,96 @@ def _wrap(x, lo, length, inv_cell, origin, k, real, axes):
             x[a, i] = xa
 
 
-def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None, then=None):
-    """The one CUDA neighbour loop, the same walk as the CPU backend's, one thread per i.
-    ``then``: then(i, I, S, R, P) after i's ``finish``, in the same thread (launched with S
-    and R after the pass's arguments; a pass without it takes only its own)."""
+def _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic=None):
+    """body(i, I, J1, J2, P, G): particle i's walk over the cells around it and its
+    ``finish``, the same walk as the CPU backend's (a device function of the pass kernels and
+    of a tail's wall corrections)."""
     visit1 = make_run_visitor(dim, pair1, zero)
     visit2 = make_run_visitor(dim, pair2, zero)
     if periodic is not None and any(periodic):
         walk = make_periodic_walk(dim, visit1, visit2, use2, zero, periodic)
 
         @cuda.jit(device=True)
-        def body(i, I, J1, J2, P, G):
+        def body_periodic(i, I, J1, J2, P, G):
             zi = I.x[2, i] if dim == 3 else zero
             acc = walk(i, I.x[0, i], I.x[1, i], zi, I.cell[i], I, J1, J2, P, G, init(i, I, P))
             finish(i, I, P, acc)
-    else:
-        @cuda.jit(device=True)
-        def body(i, I, J1, J2, P, G):
-            c = I.cell[i]
-            xi = I.x[0, i]
-            yi = I.x[1, i]
-            zi = I.x[2, i] if dim == 3 else zero
-            acc = init(i, I, P)
-            k = G.k
-            kz = k if dim == 3 else 0
-            for oz in range(-kz, kz + 1):
-                for oy in range(-k, k + 1):
-                    cc = c + oy * G.sy + oz * G.sz
-                    acc = visit1(i, xi, yi, zi, I, J1, J1.start[cc - k], J1.start[cc + k + 1], P, acc)
-                    if use2:
-                        acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - k], J2.start[cc + k + 1], P, acc)
-            finish(i, I, P, acc)
 
+        return body_periodic
+
+    @cuda.jit(device=True)
+    def body(i, I, J1, J2, P, G):
+        c = I.cell[i]
+        xi = I.x[0, i]
+        yi = I.x[1, i]
+        zi = I.x[2, i] if dim == 3 else zero
+        acc = init(i, I, P)
+        k = G.k
+        kz = k if dim == 3 else 0
+        for oz in range(-kz, kz + 1):
+            for oy in range(-k, k + 1):
+                cc = c + oy * G.sy + oz * G.sz
+                acc = visit1(i, xi, yi, zi, I, J1, J1.start[cc - k], J1.start[cc + k + 1], P, acc)
+                if use2:
+                    acc = visit2(i, xi, yi, zi, I, J2, J2.start[cc - k], J2.start[cc + k + 1], P, acc)
+        finish(i, I, P, acc)
+
+    return body
+
+
+def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None, then=None):
+    """The one CUDA neighbour loop, one thread per i. ``then``: then(i, I, S, R, P) after
+    i's ``finish``, in the same thread (launched with (S, R) after the pass's arguments).
+
+    The kernel takes the views it reads once: a view passed twice costs numba-cuda's
+    dispatcher its arrays twice (about a hundred scalars for the fluid's), so J1 is left out
+    when it is I (the fluid's own passes), J2 when the pass has no second set; T, the tuple
+    of ``then``'s views, is empty without it."""
+    body = _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic)
     if then is None:
         @cuda.jit(device=True)
-        def after(i, I, S, R, P):
+        def after(i, I, T, P):
             pass
     else:
-        after = then
+        @cuda.jit(device=True)
+        def after(i, I, T, P):
+            then(i, I, T[0], T[1], P)
 
-    # Kernels by the views they take: a view passed twice costs numba-cuda's dispatcher its
-    # arrays twice (about a hundred scalars for the fluid's), so J1 is left out when it is I
-    # (the fluid's own passes), J2 when the pass has no second set, S and R without ``then``.
     @cuda.jit
-    def self1(I, P, G):
+    def self1(I, P, G, T):
         i = cuda.grid(1)
         if i < I.x.shape[1]:
             body(i, I, I, I, P, G)
+            after(i, I, T, P)
 
     @cuda.jit
-    def other1(I, J1, P, G):
+    def other1(I, J1, P, G, T):
         i = cuda.grid(1)
         if i < I.x.shape[1]:
             body(i, I, J1, J1, P, G)
+            after(i, I, T, P)
 
     @cuda.jit
-    def self2(I, J2, P, G):
+    def self2(I, J2, P, G, T):
         i = cuda.grid(1)
         if i < I.x.shape[1]:
             body(i, I, I, J2, P, G)
+            after(i, I, T, P)
 
     @cuda.jit
-    def other2(I, J1, J2, P, G):
+    def other2(I, J1, J2, P, G, T):
         i = cuda.grid(1)
         if i < I.x.shape[1]:
             body(i, I, J1, J2, P, G)
+            after(i, I, T, P)
 
-    @cuda.jit
-    def self1_then(I, P, G, S, R):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            body(i, I, I, I, P, G)
-            after(i, I, S, R, P)
-
-    @cuda.jit
-    def other1_then(I, J1, P, G, S, R):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            body(i, I, J1, J1, P, G)
-            after(i, I, S, R, P)
-
-    @cuda.jit
-    def self2_then(I, J2, P, G, S, R):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            body(i, I, I, J2, P, G)
-            after(i, I, S, R, P)
-
-    @cuda.jit
-    def other2_then(I, J1, J2, P, G, S, R):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            body(i, I, J1, J2, P, G)
-            after(i, I, S, R, P)
-
-    kernels = {(True, False, False): self1, (False, False, False): other1, (True, True, False): self2,
-               (False, True, False): other2, (True, False, True): self1_then, (False, False, True): other1_then,
-               (True, True, True): self2_then, (False, True, True): other2_then}
+    kernels = {(True, False): self1, (False, False): other1, (True, True): self2, (False, True): other2}
 
     def kernel_for(I, J1, J2, P, G, S=None, R=None):
         """The kernel for these views and its arguments."""
         same = J1 is I
-        args = (I,) + (() if same else (J1,)) + ((J2,) if use2 else ()) + (P, G)
-        if then is not None:
-            args += (S, R)
-        return kernels[(same, use2, then is not None)], args
+        args = (I,) + (() if same else (J1,)) + ((J2,) if use2 else ()) + (P, G, () if then is None else (S, R))
+        return kernels[(same, use2)], args
 
     def launch(I, J1, J2, P, G, S=None, R=None):
         n = I.x.shape[1]
@@ -535,23 +520,11 @@ def _make_tail_kernel(dim, fn, walk, zero):
         def after(i, F, J, P, G):
             pass
     else:
-        init, pair, finish = walk
-        visit = make_run_visitor(dim, pair, zero)
+        body = _pass_body(dim, walk[0], walk[1], walk[1], walk[2], False, zero)
 
         @cuda.jit(device=True)
         def after(i, F, J, P, G):
-            c = F.cell[i]
-            xi = F.x[0, i]
-            yi = F.x[1, i]
-            zi = F.x[2, i] if dim == 3 else zero
-            acc = init(i, F, P)
-            k = G.k
-            kz = k if dim == 3 else 0
-            for oz in range(-kz, kz + 1):
-                for oy in range(-k, k + 1):
-                    cc = c + oy * G.sy + oz * G.sz
-                    acc = visit(i, xi, yi, zi, F, J, J.start[cc - k], J.start[cc + k + 1], P, acc)
-            finish(i, F, P, acc)
+            body(i, F, J, J, P, G)
 
     @cuda.jit
     def run(I, P, F, J, G, measure, origin, inv_cell, nx, ny, nz, ncells, k, is_max, partial, final, counter,
