@@ -425,7 +425,6 @@ class SymplecticEuler(Integrator):
     factory = staticmethod(make_symplectic_euler)
     order = 1
     stable_cfl, safe_cfl, summation_cfl = 0.05, 0.025, 0.25
-
     opens_with_evaluation = True
     ending = (0,)
 
@@ -448,14 +447,13 @@ class Verlet(Integrator):
     order = 2
     stable_cfl, safe_cfl = 0.1, 0.05
     carried = ("count",)
+    opens_with_evaluation = True
+    ending = (0, 1)  # leapfrog, Euler
 
     def __init__(self, *a, **k):
         super().__init__(*a, **k)
         self.every = int(self.setting("verlet_euler_interval"))
         self.count = 0
-
-    opens_with_evaluation = True
-    ending = (0, 1)
 
     def step(self, state, P):
         state.evaluate(P)

@@ -58,12 +58,12 @@ def stages(integrator, bodies, open_boundaries, damping=None):
 def fuse_tail(state, integrator, bodies, open_boundaries, damping=None):
     """Let the integrator's last map of a step run the model's wall corrections (the elastic
     bounce, NBVC-PST) and the check in its own loop where no stage between them changes what
-    they read: the walls stand where the corrections will see them (no prescribed motion), and
-    after the check's own stage nothing moves the fluid (no open boundary, damping zone or
-    periodic wrap). A decomposed run keeps its stages apart (its ghosts are refreshed between
-    them). The check is fused only by a backend that does it in the same launch
-    (``fuses_check``); a step after which one of the model's other after-step passes runs
-    keeps them apart as well (``State.tail``)."""
+    they read: the walls stand where the corrections would see them (no prescribed motion),
+    and nothing moves the fluid between that map and the check's stage (no open boundary,
+    damping zone or periodic wrap). A decomposed run keeps its stages apart (its ghosts are
+    refreshed between them). The check is fused only by a backend that does it in the same
+    launch (``fuses_check``); a step after which one of the model's other after-step passes
+    runs keeps them apart as well (``State.tail``)."""
     model = state.model
     if state.par is not None or state.grid.any_periodic:
         return
