@@ -536,28 +536,11 @@ def _make_tail_kernel(dim, fn, walk, zero):
             fn(i, I, P)
             after(i, F, J, P, G)
         if measure:  # the same for every thread: the barriers below are reached by all
-            vmax2 = 0.0
-            amax2 = 0.0
-            bad = 0.0
-            outside = 0.0
+            acc = (0.0, 0.0, 0.0, 0.0)
             if i < n:
-                s, q, ok = particle_check(I.x, I.v, I.dvdt, i)
-                if ok:
-                    vmax2 = s
-                    amax2 = q
-                else:
-                    bad = 1.0
-                c = _cell_of(I.x, i, origin, inv_cell, nx, ny, nz, ncells, k)
-                if c == ncells:
-                    outside = 1.0
-                cell[i] = c
-                _count(c, count, sums, chunk)
-            b = cuda.blockIdx.x
-            _block_tree(tile, vmax2, True, 0, partial, b)
-            _block_tree(tile, amax2, True, 1, partial, b)
-            _block_tree(tile, bad, False, 2, partial, b)
-            _block_tree(tile, outside, False, 3, partial, b)
-            _finish_if_last(tile, partial, is_max, final, counter)
+                acc = _check_one(I.x, I.v, I.dvdt, i, acc, origin, inv_cell, nx, ny, nz, ncells, k, True, cell,
+                                 count, sums, chunk)
+            _check_reduce(tile, acc, is_max, partial, final, counter)
 
     def launch(I, P, F=None, J=None, G=None, measure=None):
         """``measure``: (the particle set of I, its grid) to check in the same launch."""
@@ -662,6 +645,39 @@ def _reduce_blocks(out, is_max, mask, masked, partial, final, counter):
     _finish_if_last(tile, partial, is_max, final, counter)
 
 
+@cuda.jit(device=True)
+def _check_one(x, v, a, i, acc, origin, inv_cell, nx, ny, nz, ncells, k, count_cells, cell, count, sums, chunk):
+    """``acc`` = (largest |v|^2, largest |a|^2, particles with anything non-finite, particles
+    outside the grid) with particle i checked in; with ``count_cells`` also its cell id
+    written and counted for the next sort (``_cell_ids_counted``)."""
+    vmax2, amax2, bad, outside = acc
+    s, q, ok = particle_check(x, v, a, i)
+    if ok:
+        vmax2 = max(vmax2, s)
+        amax2 = max(amax2, q)
+    else:
+        bad += 1.0
+    c = _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k)
+    if c == ncells:
+        outside += 1.0
+    if count_cells:
+        cell[i] = c
+        _count(c, count, sums, chunk)
+    return vmax2, amax2, bad, outside
+
+
+@cuda.jit(device=True)
+def _check_reduce(tile, acc, is_max, partial, final, counter):
+    """The threads' ``_check_one`` figures reduced into final[:, 0] (the last block reduces
+    the blocks' columns of ``partial``); every thread of the launch must reach it."""
+    b = cuda.blockIdx.x
+    _block_tree(tile, acc[0], True, 0, partial, b)
+    _block_tree(tile, acc[1], True, 1, partial, b)
+    _block_tree(tile, acc[2], False, 2, partial, b)
+    _block_tree(tile, acc[3], False, 3, partial, b)
+    _finish_if_last(tile, partial, is_max, final, counter)
+
+
 @cuda.jit
 def _check_blocks(x, v, a, origin, inv_cell, nx, ny, nz, ncells, k, mask, masked, is_max, partial, final, counter,
                   count_cells, cell, count, sums, chunk):
@@ -671,32 +687,14 @@ def _check_blocks(x, v, a, origin, inv_cell, nx, ny, nz, ncells, k, mask, masked
     (every particle checked) also the next sort's cell ids, histogram and chunk sums
     (``_cell_ids_counted``)."""
     tile = cuda.shared.array(THREADS, dtype=np.float64)
-    vmax2 = 0.0
-    amax2 = 0.0
-    bad = 0.0
-    outside = 0.0
+    acc = (0.0, 0.0, 0.0, 0.0)
     i = cuda.grid(1)
     while i < x.shape[1]:
         if not masked or mask[i] != 0:
-            s, q, ok = particle_check(x, v, a, i)
-            if ok:
-                vmax2 = max(vmax2, s)
-                amax2 = max(amax2, q)
-            else:
-                bad += 1.0
-            c = _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k)
-            if c == ncells:
-                outside += 1.0
-            if count_cells:
-                cell[i] = c
-                _count(c, count, sums, chunk)
+            acc = _check_one(x, v, a, i, acc, origin, inv_cell, nx, ny, nz, ncells, k, count_cells, cell, count,
+                             sums, chunk)
         i += cuda.gridsize(1)
-    b = cuda.blockIdx.x
-    _block_tree(tile, vmax2, True, 0, partial, b)
-    _block_tree(tile, amax2, True, 1, partial, b)
-    _block_tree(tile, bad, False, 2, partial, b)
-    _block_tree(tile, outside, False, 3, partial, b)
-    _finish_if_last(tile, partial, is_max, final, counter)
+    _check_reduce(tile, acc, is_max, partial, final, counter)
 
 
 #: blocks of the first reduction level (their partial results are reduced by the last block)
