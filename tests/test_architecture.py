@@ -120,7 +120,7 @@ RUN_BOTH = textwrap.dedent("""
     mu = 0.05  # 50 times water's: large enough that the term shows in 30 steps
     ref = final("PhysicalViscosity_MVT", [("model.dynamicViscosity", mu)])
     toy = final("ToyViscosity", [("model.toy_mu", mu)])
-    none = final("None", [])
+    none = final("ToyViscosity", [("model.toy_mu", 0.0)])  # its loops again: no compile
     print(json.dumps({"dx": float(np.abs(ref[0] - toy[0]).max()), "dv": float(np.abs(ref[1] - toy[1]).max()),
                       "dt": [ref[2], toy[2]], "effect": float(np.abs(ref[1] - none[1]).max()),
                       "listed": "ToyViscosity" in slot_table()}))

@@ -5,8 +5,9 @@ Numba keys a cached loop by the pickled types of its arguments; a namedtuple who
 name differs from the name it is bound to cannot be found again, and the loop recompiles
 (15-19 s) in every process while its cache file is rewritten. ``NUMBA_DEBUG_CACHE=1``
 prints one "data saved" line per compilation written to the cache and one "data loaded"
-line per loop taken from it, which is what this test reads. It uses a cache directory of
-its own: a cache that already holds entries from other code can hide a key that never matches.
+line per loop taken from it, which is what this test reads. It uses the cache the rest of
+the suite fills: a key that never matches is saved again by the second run, whoever compiled
+the loop first.
 """
 import json
 import os
@@ -26,7 +27,11 @@ WARM_LIMIT_S = 2.0
 
 
 def _run(name, out, cache_dir):
-    env = dict(os.environ, NUMBA_DEBUG_CACHE="1", NUMBA_CACHE_DIR=str(cache_dir))
+    """``wcsph run name`` for two steps into ``out``, with ``cache_dir`` as Numba's cache
+    (None: the default)."""
+    env = dict(os.environ, NUMBA_DEBUG_CACHE="1")
+    if cache_dir is not None:
+        env["NUMBA_CACHE_DIR"] = str(cache_dir)
     cmd = [sys.executable, "-m", "wcsph.cli", "run", name, "-o", str(out), "--no-progress",
            "--set", "time.max_steps=2", "--set", "output.vtk=false"]
     if "3d" in name:
@@ -44,13 +49,18 @@ CASES = ["dam_break_2d", "couette_2d", "poiseuille_open_2d"]
 
 
 # session scope: a worker of a parallel run may interleave other modules' tests with these,
-# and a module-scoped fixture would then be torn down and filled again (90 s each time)
+# and a module-scoped fixture would then be torn down and filled again
 @pytest.fixture(scope="session")
 def cache_dir(tmp_path_factory):
-    """A fresh cache, filled by one run of each case of ``CASES`` (compiling all their loops)."""
-    path = tmp_path_factory.mktemp("numba_cache")
+    """The cache the suite's own processes use (``NUMBA_CACHE_DIR`` when set, else the
+    package's ``__pycache__``), filled by one run of each case of ``CASES``: a loop another
+    test compiled first is loaded, the rest compiled and saved. A fresh cache of its own
+    compiled every loop of the three cases a second time in a cold suite (a minute of one
+    worker's time); what is asked below holds either way: a second process loads every loop
+    it runs and saves none."""
+    path = os.environ.get("NUMBA_CACHE_DIR")
     for name in CASES:
-        _run(name, path / f"first_{name}", path)
+        _run(name, tmp_path_factory.mktemp(f"first_{name}"), path)
     return path
 
 

@@ -154,6 +154,22 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, case_text, args, mes
     assert "np.float64" not in err
 
 
+@pytest.mark.parametrize("limit,message", [(50, " particles; the cpu backend addresses at most 50."),
+                                           (500, " cells; the cpu backend addresses at most 500.")])
+def test_a_case_beyond_the_backends_indices_is_one_line(tmp_path, capsys, monkeypatch, limit, message):
+    """The GPU's sort indexes particles and cells with 32 bits (``cuda.INDEX``): a case with
+    more is refused before any allocation, as here the CPU backend with a lowered limit (the
+    case: 100 fluid and 272 wall particles, 772 grid cells)."""
+    from wcsph.backends.cpu import CpuBackend
+
+    monkeypatch.setattr(CpuBackend, "max_index", limit)
+    path = tmp_path / "case.toml"
+    path.write_text(BASE_TOML)
+    assert main(["run", str(path), "--no-progress", "-o", str(tmp_path / "out")]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0] and "dp: 0.05 m makes" in lines[0], lines
+
+
 def test_all_particles_leaving_the_domain_stops_cleanly(tmp_path, capsys):
     case = tmp_path / "jet.toml"
     case.write_text('name = "jet"\ndim = 2\ndp = 0.05\n[[fluid]]\nmin = [0.0, 0.0]\nmax = [0.3, 0.3]\n'

@@ -12,6 +12,10 @@ from wcsph.cli import main
 from wcsph.case.config import load
 from wcsph.errors import CaseError
 
+#: one worker runs them all: each worker compiles these loops into a cache of its own
+#: (``own_numba_cache``), and two workers compiled them twice in a cold suite
+pytestmark = pytest.mark.xdist_group("restart")
+
 
 @pytest.fixture(scope="session")
 def _own_cache(request, tmp_path_factory):

@@ -289,6 +289,8 @@ def _make_reduce_loop(fn):
 
 class CpuBackend:
     name = "cpu"
+    #: the most particles in a set, and cells in a grid, that the sort's indices address
+    max_index = int(np.iinfo(np.int64).max)
 
     def to_device(self, a):
         return np.ascontiguousarray(a)

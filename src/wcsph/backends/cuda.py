@@ -72,6 +72,11 @@ if numba_config.ENABLE_CUDASIM:
     FakeCUDAShared.array = _shared_array
 
 THREADS = 128
+#: the dtype of the sort's indices (cell ids, cell starts, permutation, histogram): unsigned,
+#: so that a neighbour index read from the cell starts is too, as on the CPU (Numba then emits
+#: no negative-index wrap-around code), and 32-bit, half the bytes of int64 for every index
+#: read (a case is refused when its particles or cells do not fit: ``CudaBackend.max_index``)
+INDEX = np.uint32
 #: the cell-start scan's chunks (the elements a thread scans serially): at least this long,
 #: and at most SCAN_CHUNKS many
 SCAN_CHUNK = 64
@@ -292,11 +297,11 @@ def _scratch(shape, dtype=np.float64):
 
 
 def _buffer(work, name, n):
-    """The int64 device array ``name`` of length n from the dict ``work``, allocated (zero)
+    """The ``INDEX`` device array ``name`` of length n from the dict ``work``, allocated (zero)
     once."""
     a = work.get(name)
     if a is None or a.size != n:
-        a = work[name] = cuda.to_device(np.zeros(n, dtype=np.int64))
+        a = work[name] = cuda.to_device(np.zeros(n, dtype=INDEX))
     return a
 
 
@@ -775,7 +780,7 @@ def _measure_args(pset, grid, nb):
     if grid is None:
         origin = inv = _unused_vector(dt)
         nx = ny = nz = ncells = k = 2 ** 40  # no cell is out of range
-        cell = count = sums = _unused(np.int64)
+        cell = count = sums = _unused(INDEX)
         chunk = 1
     else:
         g = grid.view()
@@ -785,7 +790,7 @@ def _measure_args(pset, grid, nb):
         count, sums, chunk, _ = _sort_buffers(work, ncells)
         cell = work.get("cell")
         if cell is None or cell.shape[0] != pset.n:
-            cell = work["cell"] = cuda.device_array(pset.n, dtype=np.int64)
+            cell = work["cell"] = cuda.device_array(pset.n, dtype=INDEX)
     return (origin, inv, nx, ny, nz, ncells, k, _flags(CHECK_OPS), _scratch((4, nb)), _scratch((4, 1)), _counter(),
             cell, count, sums, chunk)
 
@@ -801,7 +806,7 @@ def _no_measure(dt):
     """``_measure_args`` of a tail that does not check (never read)."""
     key = np.dtype(dt).str
     if key not in _NO_MEASURE:
-        u = _unused(np.int64)
+        u = _unused(INDEX)
         _NO_MEASURE[key] = (_unused_vector(dt), _unused_vector(dt), 1, 1, 1, 1, 1, _flags(CHECK_OPS),
                             _scratch((4, 1)), _scratch((4, 1)), _counter(), u, u, u, 1)
     return _NO_MEASURE[key]
@@ -809,6 +814,9 @@ def _no_measure(dt):
 
 class CudaBackend:
     name = "cuda"
+    #: the most particles in a set, and cells in a grid (with its two extra ids), that the
+    #: sort's ``INDEX`` indices address
+    max_index = int(np.iinfo(INDEX).max)
 
     def to_device(self, a):
         return cuda.to_device(np.ascontiguousarray(a))
@@ -872,7 +880,7 @@ class CudaBackend:
                 _zero[_blocks(count.size), THREADS](count)
                 _zero[_blocks(sums.size), THREADS](sums)
             if "cell" not in pset.arrays or pset["cell"].shape[0] != n:
-                pset["cell"] = cuda.device_array(n, dtype=np.int64)
+                pset["cell"] = cuda.device_array(n, dtype=INDEX)
             if n:
                 _cell_ids_counted[_blocks(n), THREADS](x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k,
                                                        _unused(np.uint8) if drop is None else drop, drop is not None,

@@ -66,9 +66,11 @@ masses, and impulses through the contact points, equal and opposite on the two, 
 approach there and turn both (momentum and angular momentum kept). A concave polygon, fixed
 or floating (2D), is held as its convex pieces (``convex_pieces``: ear clipping, then pieces
 merged while convex), each pushed out of only through the polygon's own edges, not the
-diagonals between pieces; a concave 3D mesh holds no other body's points out of it (its own
-points are still held out of convex ones), and a moving obstacle meets a floating body
-through the fluid between them alone.
+diagonals between pieces. A concave closed 3D mesh, floating or a fixed ``[[walls]]`` mesh,
+is held as itself (``MeshShape``): a point is inside where the mesh's winding number about it
+is 1, and the deepest point inside leaves through its nearest point of the surface, up to
+``MESH_PASSES`` pushes per contact (an inner corner takes one per face). A moving obstacle
+meets a floating body through the fluid between them alone.
 """
 import math
 
@@ -187,7 +189,7 @@ class FloatingBody:
         self.blocks = []  # (N, o): fixed convex obstacles the body stays out of, inside where N x < o
         self.box = None  # (lo, hi) about c0 in the body's frame, when the body is an obstacle box
         self.hull = None  # (N (m, dim), o (m)): a convex body's faces about c0, inside where N y < o
-        self.pieces = []  # a concave 2D body's convex pieces about c0 (``convex_pieces``)
+        self.pieces = []  # a concave body's convex pieces (2D) or mesh (3D) about c0 (``shapes``)
 
     def meet(self, points, planes, blocks=()):
         """The body's wall points (dim, K) at rest, the faces it must stay inside of
@@ -196,7 +198,8 @@ class FloatingBody:
         N x < o)."""
         self.points = np.asarray(points, dtype=float) - self.c0[:, None]
         self.planes = [(np.asarray(n, dtype=float), float(o)) for n, o in planes]
-        self.blocks = [(np.asarray(b[0], dtype=float), np.asarray(b[1], dtype=float)) + tuple(b[2:]) for b in blocks]
+        self.blocks = [b if isinstance(b, MeshShape) else
+                       (np.asarray(b[0], dtype=float), np.asarray(b[1], dtype=float)) + tuple(b[2:]) for b in blocks]
 
     def pose(self, t):
         """(d, R, u, omega, du, alpha): the centre's displacement from where it started, the
@@ -358,9 +361,24 @@ class FloatingBody:
         (rigid, inelastic, turning the body, as at the tank's faces)."""
         R = self.R if self.dim == 3 else _rot2(self.theta)
         for block in self.blocks:
+            if isinstance(block, MeshShape):
+                for _ in range(MESH_PASSES):
+                    x = self.c[:, None] + R @ self.points
+                    hit = block.push(x, TOUCH * block.size)
+                    if hit is None:
+                        break
+                    inside, need, n = hit
+                    m = n * self.free_t
+                    along = float(m @ n)
+                    if not along > 0.0:
+                        break  # held along the way out
+                    r = _extremes(x[:, inside] - self.c[:, None], n)
+                    self.c = self.c + need / along * m
+                    self._impulses(n, r)
+                continue
+            x = self.c[:, None] + R @ self.points
             N, o = block[:2]
             out = _exits(block)
-            x = self.c[:, None] + R @ self.points
             depth = o[:, None] - N @ x  # (faces, points): how far inside each face
             inside = np.all(depth > 0.0, axis=0)
             if not inside.any():
@@ -395,8 +413,9 @@ class FloatingBody:
         return box_faces(*self.box)
 
     def shapes(self):
-        """The convex pieces other bodies stay out of, in its own frame about its centre: its
-        ``faces`` as one, or a concave polygon's pieces (N, o, exposed: ``convex_pieces``)."""
+        """The shapes other bodies stay out of, in its own frame about its centre: its
+        ``faces`` as one, or a concave polygon's convex pieces (N, o, exposed:
+        ``convex_pieces``), or a concave 3D mesh (``MeshShape``)."""
         f = self.faces()
         return [f] if f is not None else list(self.pieces)
 
@@ -656,8 +675,11 @@ def body_of(key, table, dim, mesh=None, rho0=1000.0):
         _hold_out(body, np.asarray(table["points"], dtype=float).T - c[:, None])
     elif mesh is not None:
         verts, faces = mesh
-        if dim == 3:  # a concave mesh: through the fluid alone
-            body.hull = convex_faces(np.asarray(verts, dtype=float) - c[:, None], faces)
+        if dim == 3:  # its faces when convex, else the mesh itself
+            local = np.asarray(verts, dtype=float) - c[:, None]
+            body.hull = convex_faces(local, faces)
+            if body.hull is None:
+                body.pieces = [MeshShape(local, faces)]
         else:  # a 2D mesh: its outline's segments in order
             order = _outline(np.asarray(faces))
             if order is not None:
@@ -717,29 +739,53 @@ def collide(a, b):
     for p, q, shape in [(p, q, s) for p, q in ((a, b), (b, a)) for s in q.shapes()]:
         if not p.points.shape[1]:
             continue
-        N, o = shape[:2]
-        Rp = p.R if p.dim == 3 else _rot2(p.theta)
-        Rq = q.R if q.dim == 3 else _rot2(q.theta)
-        x = p.c[:, None] + Rp @ p.points
-        y = Rq.T @ (x - q.c[:, None])  # p's points in q's frame
-        depth = o[:, None] - N @ y  # (faces, points): how far inside each face
-        slack = TOUCH * _size(N, o)  # a point left on q's face by the last push is not inside
-        inside = np.all(depth > slack, axis=0)
-        if not inside.any():
-            continue
-        needs = np.where(_exits(shape), np.max(depth[:, inside], axis=1), np.inf)  # the push out through each face
-        f = int(np.argmin(needs))  # the first of the least
-        need = float(needs[f])
-        n = Rq @ N[f]  # out of q, for p
-        inv_p, inv_q = (float(n @ (body.free_t * n)) / body.mass for body in (p, q))
-        if inv_p + inv_q <= 0.0:
-            continue  # both held along it
-        points = p.c[:, None] + _extremes(x[:, inside] - p.c[:, None], n)  # the contact points
-        p.c = p.c + need * inv_p / (inv_p + inv_q) * p.free_t * n
-        q.c = q.c - need * inv_q / (inv_p + inv_q) * q.free_t * n
-        contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])], min(p.friction, q.friction))
-        touched = True
+        for _ in range(_passes(shape)):
+            Rp = p.R if p.dim == 3 else _rot2(p.theta)
+            Rq = q.R if q.dim == 3 else _rot2(q.theta)
+            x = p.c[:, None] + Rp @ p.points
+            y = Rq.T @ (x - q.c[:, None])  # p's points in q's frame
+            hit = _hit(shape, y)
+            if hit is None:
+                break
+            inside, need, nq = hit
+            n = Rq @ nq  # out of q, for p
+            inv_p, inv_q = (float(n @ (body.free_t * n)) / body.mass for body in (p, q))
+            if inv_p + inv_q <= 0.0:
+                break  # both held along it
+            points = p.c[:, None] + _extremes(x[:, inside] - p.c[:, None], n)  # the contact points
+            p.c = p.c + need * inv_p / (inv_p + inv_q) * p.free_t * n
+            q.c = q.c - need * inv_q / (inv_p + inv_q) * q.free_t * n
+            contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])],
+                             min(p.friction, q.friction))
+            touched = True
     return touched
+
+
+#: pushes out of one concave mesh per contact: each takes the deepest point out through its
+#: nearest face (an inner corner needs one per face it was pushed into)
+MESH_PASSES = 8
+
+
+def _passes(shape):
+    return MESH_PASSES if isinstance(shape, MeshShape) else 1
+
+
+def _hit(shape, y):
+    """For points y (dim, P) in the frame of ``shape`` (convex (N, o[, exposed]) or a
+    ``MeshShape``): None when none is inside (by more than a rounding error), else (which are,
+    the push out, its unit direction). A convex shape is left through the face that needs
+    the least push to clear them all; a mesh through the deepest point's nearest face."""
+    if isinstance(shape, MeshShape):
+        return shape.push(y, TOUCH * shape.size)
+    N, o = shape[:2]
+    depth = o[:, None] - N @ y  # (faces, points): how far inside each face
+    slack = TOUCH * _size(N, o)  # a point left on the face by the last push is not inside
+    inside = np.all(depth > slack, axis=0)
+    if not inside.any():
+        return None
+    needs = np.where(_exits(shape), np.max(depth[:, inside], axis=1), np.inf)  # the push out through each face
+    f = int(np.argmin(needs))  # the first of the least
+    return inside, float(needs[f]), N[f]
 
 
 def box_faces(lo, hi):
@@ -870,12 +916,130 @@ def convex_pieces(points):
     return out
 
 
-def fixed_blocks(case):
-    """The convex obstacles a floating body stays out of, as (N, o) half-spaces (inside where
-    N x < o): the case's obstacle boxes and closed polygons that neither float nor move, a
-    concave polygon as its convex pieces (N, o, exposed: ``convex_pieces``) (a wall mesh or
-    file: through the fluid alone)."""
+class MeshShape:
+    """A closed 3D triangle mesh, concave or not, that other bodies stay out of: a point is
+    inside where the mesh's winding number about it is 1 (Jacobson et al. 2013: the solid
+    angles of the triangles summed, Van Oosterom & Strackee's formula), and it leaves through
+    the nearest point of the surface (Ericson 2005, the closest point of each triangle). The
+    convex pieces of a concave 2D outline (``convex_pieces``) do the same in 2D; a 3D mesh
+    has no such decomposition that is cheap and exact, and needs none here."""
+
+    #: candidate pairs (points x triangles) handled at once: bounds the arrays of a large mesh
+    CHUNK = 200_000
+
+    def __init__(self, verts, tris):
+        v = np.asarray(verts, dtype=float)
+        t = np.asarray(tris, dtype=np.int64)
+        self.a, self.b, self.c = (v[:, t[:, k]] for k in range(3))  # (3, F) each
+        self.lo, self.hi = v.min(axis=1), v.max(axis=1)
+        self.size = float(np.max(self.hi - self.lo))
+
+    def shifted(self, d):
+        """The same mesh moved by the vector d."""
+        out = MeshShape.__new__(MeshShape)
+        d = np.asarray(d, dtype=float)[:, None]
+        out.a, out.b, out.c = self.a + d, self.b + d, self.c + d
+        out.lo, out.hi, out.size = self.lo + d[:, 0], self.hi + d[:, 0], self.size
+        return out
+
+    def _chunks(self, n):
+        step = max(1, self.CHUNK // max(self.a.shape[1], 1))
+        return [slice(k, min(k + step, n)) for k in range(0, n, step)]
+
+    def winding(self, y):
+        """The winding number of the surface about each point y (3, P): +-1 inside (the sign
+        of the orientation), 0 outside."""
+        out = np.zeros(y.shape[1])
+        for sl in self._chunks(y.shape[1]):
+            p = y[:, sl, None]
+            A, B, C = self.a[:, None, :] - p, self.b[:, None, :] - p, self.c[:, None, :] - p
+            la, lb, lc = (np.sqrt(np.einsum("ipf,ipf->pf", X, X)) for X in (A, B, C))
+            det = np.einsum("ipf,ipf->pf", A, np.cross(B, C, axis=0))
+            den = (la * lb * lc + np.einsum("ipf,ipf->pf", A, B) * lc + np.einsum("ipf,ipf->pf", A, C) * lb
+                   + np.einsum("ipf,ipf->pf", B, C) * la)
+            out[sl] = 2.0 * np.arctan2(det, den).sum(axis=1) / (4.0 * math.pi)
+        return out
+
+    def nearest(self, y):
+        """(the nearest point of the surface (3, P), its distance (P)) for points y (3, P)."""
+        q_out = np.empty_like(y)
+        d_out = np.empty(y.shape[1])
+        a, b, c = self.a[:, None, :], self.b[:, None, :], self.c[:, None, :]
+        ab, ac = b - a, c - a
+        for sl in self._chunks(y.shape[1]):
+            p = y[:, sl, None]
+            ap, bp, cp = p - a, p - b, p - c
+            d1, d2 = np.einsum("ipf,ipf->pf", ab, ap), np.einsum("ipf,ipf->pf", ac, ap)
+            d3, d4 = np.einsum("ipf,ipf->pf", ab, bp), np.einsum("ipf,ipf->pf", ac, bp)
+            d5, d6 = np.einsum("ipf,ipf->pf", ab, cp), np.einsum("ipf,ipf->pf", ac, cp)
+            va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t_ab = d1 / (d1 - d3)
+                t_ac = d2 / (d2 - d6)
+                t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+                inv = 1.0 / (va + vb + vc)
+            one, zero = np.ones_like(d1), np.zeros_like(d1)
+            # the Voronoi regions of the triangle's corners, edges and face, in Ericson's order
+            regions = [(d1 <= 0) & (d2 <= 0), (d3 >= 0) & (d4 <= d3), (vc <= 0) & (d1 >= 0) & (d3 <= 0),
+                       (d6 >= 0) & (d5 <= d6), (vb <= 0) & (d2 >= 0) & (d6 <= 0),
+                       (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)]
+            wb = np.select(regions, [zero, one, t_ab, zero, zero, 1.0 - t_bc], vb * inv)
+            wc = np.select(regions, [zero, zero, zero, one, t_ac, t_bc], vc * inv)
+            q = a + ab * wb + ac * wc  # (3, P, F)
+            dist2 = np.einsum("ipf,ipf->pf", q - p, q - p)
+            dist2[~np.isfinite(dist2)] = np.inf  # a degenerate triangle
+            k = np.argmin(dist2, axis=1)
+            rows = np.arange(dist2.shape[0])
+            q_out[:, sl] = q[:, rows, k]
+            d_out[sl] = np.sqrt(dist2[rows, k])
+        return q_out, d_out
+
+    def push(self, y, slack):
+        """For points y (3, P) in the mesh's frame: None when none is inside by more than
+        ``slack``, else (which are, the push that takes the deepest out through its nearest
+        point of the surface, its unit direction); the others follow in the next sweeps."""
+        near = np.all((y >= self.lo[:, None] - slack) & (y <= self.hi[:, None] + slack), axis=0)
+        if not near.any():
+            return None
+        idx = np.flatnonzero(near)
+        idx = idx[np.abs(self.winding(y[:, idx])) > 0.5]
+        if not idx.size:
+            return None
+        q, d = self.nearest(y[:, idx])
+        deep = d > slack
+        if not deep.any():
+            return None
+        inside = np.zeros(y.shape[1], dtype=bool)
+        inside[idx[deep]] = True
+        k = int(np.argmax(d))
+        return inside, float(d[k]), (q[:, k] - y[:, idx[k]]) / d[k]
+
+
+def fixed_blocks(case, meshes=()):
+    """The obstacles a floating body stays out of: the case's obstacle boxes and closed
+    polygons that neither float nor move, as (N, o) half-spaces (inside where N x < o), a
+    concave polygon as its convex pieces (N, o, exposed: ``convex_pieces``); and the closed
+    wall ``meshes`` ((vertices (dim, V), faces) of the fixed ``[[walls]]`` meshes): a convex
+    one as its faces, a concave 3D one as itself (``MeshShape``), a concave 2D outline as its
+    pieces (a particle file: through the fluid alone)."""
     out = []
+    for verts, faces in meshes:
+        v = np.asarray(verts, dtype=float)
+        centre = v.mean(axis=1)
+        if v.shape[0] == 2:
+            order = _outline(np.asarray(faces))
+            if order is None:
+                continue
+            v = v[:, order]
+            hull = convex_faces(v - centre[:, None])
+        else:
+            hull = convex_faces(v - centre[:, None], faces)
+        if hull is not None:
+            out.append((hull[0], hull[1] + hull[0] @ centre))
+        elif v.shape[0] == 2:
+            out.extend(convex_pieces(v) or [])
+        else:
+            out.append(MeshShape(v, faces))
     for b in case["obstacle"]:
         if b.get("min") is not None and b.get("floating") is None and b.get("motion") is None:
             out.append(box_faces(b["min"], b["max"]))

@@ -54,6 +54,7 @@ def build(case, backend, comm):
         opened = OpenBoundaries(case, dp, SUPPORT * h)
         fluid0 = _with_buffers(case, fluid0, opened, lo, hi, dp)
     grid = _grid(case, lo, hi, h)
+    _check_indices(case, be, grid, fluid0["x"].shape[1] + wall0["x"].shape[1])
     warnings = list(case.get("_warnings", ()))  # settings that make results doubtful
     mass = model.particle_mass(dp, h, ph["rho0"], w_np)
     integrator, cfl = _integrator(case, be, model, warnings)
@@ -88,7 +89,7 @@ def build(case, backend, comm):
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,
                     _floating_bodies(case), float(np.linalg.norm(case["physics"]["gravity"])))
     planes = tank_planes(case["tank"], dim)  # the faces a floating body meets
-    blocks = fixed_blocks(case)  # the fixed boxes it stays out of
+    blocks = fixed_blocks(case, _fixed_meshes(case)) if bodies.floating else []  # the fixed obstacles it stays out of
     for b, f in bodies.floating.items():
         f.meet(wall0["x"][:, body == b], planes, blocks)
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
@@ -174,6 +175,16 @@ def _grid(case, lo, hi, h):
         raise CaseError(f"{case['_source']}: domain.periodic: {e}") from None
 
 
+def _check_indices(case, be, grid, n):
+    """A clear error for a case whose particles (``n``, fluid and walls) or grid cells the
+    backend's sort cannot address."""
+    cells = grid.ncells + 2
+    if max(n, cells) > be.max_index:
+        what = f"{n:,} particles" if n > be.max_index else f"a neighbour grid of {cells:,} cells"
+        raise CaseError(f"{case['_source']}: dp: {case['dp']:g} m makes {what}; the {be.name} backend addresses at "
+                        f"most {be.max_index:,}. Use a larger dp or a smaller domain")
+
+
 def _integrator(case, be, model, warnings):
     """The integrator of ``[time]`` (the model's default when none is named) and the cfl."""
     tc = case["time"]
@@ -205,6 +216,14 @@ def _floating_bodies(case):
             mesh = read_surface(Path(case["_source"]).parent / table["mesh"], case["dim"])
         out[b] = body_of(key, table, case["dim"], mesh, case["physics"]["rho0"])
     return out
+
+
+def _fixed_meshes(case):
+    """(vertices, faces) of the case's closed wall meshes that neither float nor move."""
+    from ..io.readers import read_surface
+
+    return [read_surface(Path(case["_source"]).parent / w["mesh"], case["dim"]) for w in case["walls"]
+            if w.get("mesh") and w.get("floating") is None and w.get("motion") is None]
 
 
 def _decomposition(case, comm, grid, be, occupied, opened):
