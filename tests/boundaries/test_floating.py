@@ -883,8 +883,8 @@ def _in_cup(x):
 
 
 def test_a_concave_mesh_knows_its_inside_and_the_nearest_way_out():
-    """``MeshShape`` of the cup: the winding number is 1 at 2,000 random points inside its
-    solid and 0 elsewhere (the hollow included); a point in a wall or the floor leaves through
+    """``MeshShape`` of the cup: 2,000 random points are inside its solid or not as the boxes
+    say (the hollow outside); a point in a wall or the floor leaves through
     the nearest face, at its distance; the cup's volume from the same triangles is its own."""
     from wcsph.boundaries.floating import MeshShape, mesh_properties
 
@@ -893,8 +893,17 @@ def test_a_concave_mesh_knows_its_inside_and_the_nearest_way_out():
     shape = MeshShape(v, t)
     rng = np.random.default_rng(3)
     x = rng.uniform([0.2, 0.2, -0.05], [0.8, 0.8, 0.65], size=(2000, 3)).T
-    w = shape.winding(x)
-    assert np.allclose(w, np.where(_in_cup(x), 1.0, 0.0), atol=1e-9)
+    assert np.array_equal(shape.inside(x), _in_cup(x))
+    from wcsph.boundaries.floating import _exp
+
+    R = _exp(np.array([0.3, -0.5, 0.7]))  # turned: no face along the ray or a grid axis
+    assert np.array_equal(MeshShape(R @ v, t).inside(R @ x), _in_cup(x))
+    fine = [np.round(np.arange(e[0], e[-1] + 1e-9, 0.025), 12) for e in CUP_EDGES]  # 6,976 triangles
+    solid = _in_cup(np.array(np.meshgrid(*[0.5 * (f[1:] + f[:-1]) for f in fine], indexing="ij")).reshape(3, -1))
+    big = MeshShape(*_voxel_mesh(fine, solid.reshape([len(f) - 1 for f in fine])))
+    assert big.a.shape[1] > 5000 and np.array_equal(big.inside(x), _in_cup(x))
+    inner = x[:, _in_cup(x)]  # the same surface in 76 times the triangles: the same way out
+    assert np.allclose(big.nearest(inner)[1], shape.nearest(inner)[1], atol=1e-12)
     points = np.array([[0.5, 0.5, 0.05], [0.5, 0.5, 0.17], [0.27, 0.5, 0.4], [0.5, 0.72, 0.5], [0.3, 0.3, 0.1]]).T
     q, d = shape.nearest(points)
     assert d == pytest.approx([0.05, 0.03, 0.02, 0.03, 0.05], abs=1e-12)
@@ -965,7 +974,7 @@ def test_a_box_thrown_into_a_floating_3d_l_mesh_stays_out_of_it_and_keeps_the_mo
         met = collide(a, b) or met
         x = a.c[:, None] + a.R @ a.points
         y = b.R.T @ (x - b.c[:, None]) + b.c0[:, None]  # in the L's frame at the start
-        inside = np.abs(shape.winding(y)) > 0.5
+        inside = shape.inside(y)
         if inside.any():
             assert shape.nearest(y[:, inside])[1].max() < 1e-9
         assert a.mass * a.u + b.mass * b.u == pytest.approx(P0, abs=1e-12)

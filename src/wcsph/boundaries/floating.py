@@ -67,8 +67,9 @@ approach there and turn both (momentum and angular momentum kept). A concave pol
 or floating (2D), is held as its convex pieces (``convex_pieces``: ear clipping, then pieces
 merged while convex), each pushed out of only through the polygon's own edges, not the
 diagonals between pieces. A concave closed 3D mesh, floating or a fixed ``[[walls]]`` mesh,
-is held as itself (``MeshShape``): a point is inside where the mesh's winding number about it
-is 1, and the deepest point inside leaves through its nearest point of the surface, up to
+is held as itself (``MeshShape``): a point is inside where a ray from it crosses the mesh an
+odd number of times, and the deepest point inside leaves through its nearest point of the
+surface, up to
 ``MESH_PASSES`` pushes per contact (an inner corner takes one per face). A moving obstacle
 meets a floating body through the fluid between them alone.
 """
@@ -916,16 +917,47 @@ def convex_pieces(points):
     return out
 
 
+def _closest_on_triangles(p, a, b, c):
+    """The closest point of triangle (a, b, c) to point p, for K pairs (each (3, K)): the
+    Voronoi regions of the corners, edges and face in Ericson's order (Real-Time Collision
+    Detection, 2005, 5.1.5)."""
+    ab, ac = b - a, c - a
+    ap, bp, cp = p - a, p - b, p - c
+    d1, d2 = np.einsum("ik,ik->k", ab, ap), np.einsum("ik,ik->k", ac, ap)
+    d3, d4 = np.einsum("ik,ik->k", ab, bp), np.einsum("ik,ik->k", ac, bp)
+    d5, d6 = np.einsum("ik,ik->k", ab, cp), np.einsum("ik,ik->k", ac, cp)
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_ab = d1 / (d1 - d3)
+        t_ac = d2 / (d2 - d6)
+        t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        inv = 1.0 / (va + vb + vc)
+    one, zero = np.ones_like(d1), np.zeros_like(d1)
+    regions = [(d1 <= 0) & (d2 <= 0), (d3 >= 0) & (d4 <= d3), (vc <= 0) & (d1 >= 0) & (d3 <= 0),
+               (d6 >= 0) & (d5 <= d6), (vb <= 0) & (d2 >= 0) & (d6 <= 0),
+               (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)]
+    wb = np.select(regions, [zero, one, t_ab, zero, zero, 1.0 - t_bc], vb * inv)
+    wc = np.select(regions, [zero, zero, zero, one, t_ac, t_bc], vc * inv)
+    return a + ab * wb + ac * wc
+
+
 class MeshShape:
     """A closed 3D triangle mesh, concave or not, that other bodies stay out of: a point is
-    inside where the mesh's winding number about it is 1 (Jacobson et al. 2013: the solid
-    angles of the triangles summed, Van Oosterom & Strackee's formula), and it leaves through
-    the nearest point of the surface (Ericson 2005, the closest point of each triangle). The
-    convex pieces of a concave 2D outline (``convex_pieces``) do the same in 2D; a 3D mesh
-    has no such decomposition that is cheap and exact, and needs none here."""
+    inside where a ray from it crosses the surface an odd number of times (the ray nearly
+    vertical, tilted by irrational amounts so that it meets no edge of an axis-aligned mesh;
+    Moeller & Trumbore's test against the triangles whose footprint along the ray covers the
+    point's bin, so a check costs the triangles near the point's column, not all of them),
+    and it leaves through the nearest point of the surface (Ericson 2005, the closest point
+    of each triangle). The convex pieces of a concave 2D outline (``convex_pieces``) do the
+    same in 2D; a 3D mesh has no such decomposition that is cheap and exact, and needs none
+    here."""
 
     #: candidate pairs (points x triangles) handled at once: bounds the arrays of a large mesh
     CHUNK = 200_000
+    #: the inside test's ray
+    RAY = np.array([math.sqrt(2.0) * 1e-3, math.sqrt(3.0) * 1e-3, 1.0]) / math.sqrt(1.0 + 5e-6)
+    #: triangles per bin of the ray's footprint grid, on average
+    PER_BIN = 4
 
     def __init__(self, verts, tris):
         v = np.asarray(verts, dtype=float)
@@ -933,65 +965,84 @@ class MeshShape:
         self.a, self.b, self.c = (v[:, t[:, k]] for k in range(3))  # (3, F) each
         self.lo, self.hi = v.min(axis=1), v.max(axis=1)
         self.size = float(np.max(self.hi - self.lo))
+        self.e1, self.e2 = self.b - self.a, self.c - self.a
+        self.h = np.cross(self.RAY[:, None], self.e2, axis=0)
+        self.det = np.einsum("if,if->f", self.e1, self.h)
+        self._bins()
 
-    def shifted(self, d):
-        """The same mesh moved by the vector d."""
-        out = MeshShape.__new__(MeshShape)
-        d = np.asarray(d, dtype=float)[:, None]
-        out.a, out.b, out.c = self.a + d, self.b + d, self.c + d
-        out.lo, out.hi, out.size = self.lo + d[:, 0], self.hi + d[:, 0], self.size
-        return out
+    def _bins(self):
+        """The triangles by the bins of an xy grid over the mesh that their footprint along the
+        ray covers (their xy bounds widened by the ray's drift over the mesh's height), as
+        sorted triangle ids and each bin's first (``_start``)."""
+        F = self.a.shape[1]
+        n = max(1, int(math.sqrt(F / self.PER_BIN)))
+        ext = np.maximum(self.hi[:2] - self.lo[:2], 1e-12 * max(self.size, 1e-300))
+        self._n, self._cell = n, ext / n
+        drift = (self.hi[2] - self.lo[2]) * float(np.max(np.abs(self.RAY[:2]))) + 1e-9 * self.size
+        tri = np.stack([self.a[:2], self.b[:2], self.c[:2]])  # (3 corners, 2, F)
+        lo = np.clip(np.floor((tri.min(axis=0) - drift - self.lo[:2, None]) / self._cell[:, None]), 0, n - 1)
+        hi = np.clip(np.floor((tri.max(axis=0) + drift - self.lo[:2, None]) / self._cell[:, None]), 0, n - 1)
+        lo, hi = lo.astype(np.int64), hi.astype(np.int64)
+        bins, ids = [], []
+        for f in range(F):
+            bx, by = np.meshgrid(np.arange(lo[0, f], hi[0, f] + 1), np.arange(lo[1, f], hi[1, f] + 1))
+            bins.append((bx * n + by).ravel())
+            ids.append(np.full(bins[-1].size, f))
+        bins, ids = np.concatenate(bins), np.concatenate(ids)
+        order = np.argsort(bins, kind="stable")
+        self._tris = ids[order]
+        self._start = np.searchsorted(bins[order], np.arange(n * n + 1))
+
+    def inside(self, y):
+        """Which of the points y (3, P) are inside the surface."""
+        P = y.shape[1]
+        ij = np.clip(np.floor((y[:2] - self.lo[:2, None]) / self._cell[:, None]), 0, self._n - 1).astype(np.int64)
+        b = ij[0] * self._n + ij[1]
+        first, counts = self._start[b], self._start[b + 1] - self._start[b]
+        total = int(counts.sum())
+        crossings = np.zeros(P, dtype=np.int64)
+        if total == 0:
+            return crossings == 1
+        pi = np.repeat(np.arange(P), counts)
+        ti = self._tris[np.repeat(first, counts) + np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)]
+        for k in range(0, total, self.CHUNK):
+            p, f = pi[k:k + self.CHUNK], ti[k:k + self.CHUNK]
+            s = y[:, p] - self.a[:, f]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inv = 1.0 / self.det[f]
+                u = np.einsum("ik,ik->k", s, self.h[:, f]) * inv
+                q = np.cross(s, self.e1[:, f], axis=0)
+                v = (self.RAY @ q) * inv
+                t = np.einsum("ik,ik->k", self.e2[:, f], q) * inv
+            hit = np.isfinite(inv) & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > 0.0)
+            crossings += np.bincount(p[hit], minlength=P)
+        return crossings % 2 == 1
 
     def _chunks(self, n):
         step = max(1, self.CHUNK // max(self.a.shape[1], 1))
         return [slice(k, min(k + step, n)) for k in range(0, n, step)]
 
-    def winding(self, y):
-        """The winding number of the surface about each point y (3, P): +-1 inside (the sign
-        of the orientation), 0 outside."""
-        out = np.zeros(y.shape[1])
-        for sl in self._chunks(y.shape[1]):
-            p = y[:, sl, None]
-            A, B, C = self.a[:, None, :] - p, self.b[:, None, :] - p, self.c[:, None, :] - p
-            la, lb, lc = (np.sqrt(np.einsum("ipf,ipf->pf", X, X)) for X in (A, B, C))
-            det = np.einsum("ipf,ipf->pf", A, np.cross(B, C, axis=0))
-            den = (la * lb * lc + np.einsum("ipf,ipf->pf", A, B) * lc + np.einsum("ipf,ipf->pf", A, C) * lb
-                   + np.einsum("ipf,ipf->pf", B, C) * la)
-            out[sl] = 2.0 * np.arctan2(det, den).sum(axis=1) / (4.0 * math.pi)
-        return out
-
     def nearest(self, y):
-        """(the nearest point of the surface (3, P), its distance (P)) for points y (3, P)."""
+        """(the nearest point of the surface (3, P), its distance (P)) for points y (3, P). Only
+        the triangles that may hold it are tried: those whose bounding sphere (about the
+        centroid) comes within the distance of the nearest centroid."""
         q_out = np.empty_like(y)
         d_out = np.empty(y.shape[1])
-        a, b, c = self.a[:, None, :], self.b[:, None, :], self.c[:, None, :]
-        ab, ac = b - a, c - a
+        cen = (self.a + self.b + self.c) / 3.0
+        rad = np.sqrt(np.max([np.einsum("if,if->f", X - cen, X - cen) for X in (self.a, self.b, self.c)], axis=0))
         for sl in self._chunks(y.shape[1]):
-            p = y[:, sl, None]
-            ap, bp, cp = p - a, p - b, p - c
-            d1, d2 = np.einsum("ipf,ipf->pf", ab, ap), np.einsum("ipf,ipf->pf", ac, ap)
-            d3, d4 = np.einsum("ipf,ipf->pf", ab, bp), np.einsum("ipf,ipf->pf", ac, bp)
-            d5, d6 = np.einsum("ipf,ipf->pf", ab, cp), np.einsum("ipf,ipf->pf", ac, cp)
-            va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t_ab = d1 / (d1 - d3)
-                t_ac = d2 / (d2 - d6)
-                t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-                inv = 1.0 / (va + vb + vc)
-            one, zero = np.ones_like(d1), np.zeros_like(d1)
-            # the Voronoi regions of the triangle's corners, edges and face, in Ericson's order
-            regions = [(d1 <= 0) & (d2 <= 0), (d3 >= 0) & (d4 <= d3), (vc <= 0) & (d1 >= 0) & (d3 <= 0),
-                       (d6 >= 0) & (d5 <= d6), (vb <= 0) & (d2 >= 0) & (d6 <= 0),
-                       (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)]
-            wb = np.select(regions, [zero, one, t_ab, zero, zero, 1.0 - t_bc], vb * inv)
-            wc = np.select(regions, [zero, zero, zero, one, t_ac, t_bc], vc * inv)
-            q = a + ab * wb + ac * wc  # (3, P, F)
-            dist2 = np.einsum("ipf,ipf->pf", q - p, q - p)
+            p = y[:, sl]
+            d2 = np.einsum("ip,ip->p", p, p)[:, None] + np.einsum("if,if->f", cen, cen)[None, :] - 2.0 * (p.T @ cen)
+            dc = np.sqrt(np.maximum(d2, 0.0))
+            reach = dc.min(axis=1) * (1.0 + 1e-9) + 1e-12 * self.size
+            pi, fi = np.nonzero(dc - rad[None, :] <= reach[:, None])
+            q = _closest_on_triangles(p[:, pi], self.a[:, fi], self.b[:, fi], self.c[:, fi])
+            dist2 = np.einsum("ik,ik->k", q - p[:, pi], q - p[:, pi])
             dist2[~np.isfinite(dist2)] = np.inf  # a degenerate triangle
-            k = np.argmin(dist2, axis=1)
-            rows = np.arange(dist2.shape[0])
-            q_out[:, sl] = q[:, rows, k]
-            d_out[sl] = np.sqrt(dist2[rows, k])
+            order = np.lexsort((dist2, pi))
+            first = order[np.r_[True, pi[order][1:] != pi[order][:-1]]]  # each point's least
+            q_out[:, sl] = q[:, first]
+            d_out[sl] = np.sqrt(dist2[first])
         return q_out, d_out
 
     def push(self, y, slack):
@@ -1002,7 +1053,7 @@ class MeshShape:
         if not near.any():
             return None
         idx = np.flatnonzero(near)
-        idx = idx[np.abs(self.winding(y[:, idx])) > 0.5]
+        idx = idx[self.inside(y[:, idx])]
         if not idx.size:
             return None
         q, d = self.nearest(y[:, idx])
