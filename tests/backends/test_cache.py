@@ -137,3 +137,39 @@ def test_two_processes_saving_loops_of_one_source_keep_each_its_own(tmp_path):
     fresh = IndexDataCacheFile(str(tmp_path), "loop", "stamp")
     assert [fresh.load(f"key{i}") for i in range(2)] == ["code of closure 0", "code of closure 1"]
     assert len(set(fresh._load_index().values())) == 2
+
+
+def test_a_loop_the_cache_lacks_is_loaded_from_it_by_the_process_that_compiles_it(tmp_path, monkeypatch):
+    """A parallel fastmath loop that the process compiling it ran as compiled there gave other
+    last bits than the same loop loaded from the cache (``numba_cache.saved_first``). With
+    ``saved_first`` even the first call in a cold cache loads the loop: the dispatcher counts
+    a cache hit and no miss, where the same loop without it counts a miss."""
+    import numba
+    import numpy as np
+    from numba import njit, prange
+
+    from wcsph.backends.numba_cache import saved_first
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path))
+
+    def make():
+        def spread(a, out):
+            for i in prange(a.size):
+                out[i] = a[i] * 0.1 + a[i] / 3.0 + np.sqrt(a[i])
+
+        return spread
+
+    a = np.linspace(0.0, 1.0, 1000)
+    plain = njit(parallel=True, fastmath=True, cache=True)(make())
+    twice = saved_first(njit(parallel=True, fastmath=True, cache=True)(make()))
+    out_plain, out = np.empty_like(a), np.empty_like(a)
+    twice(a, out)
+    plain(a, out_plain)  # the same source and types: now in the cache, so loaded
+    assert sum(twice.stats.cache_hits.values()) == 1 and not twice.stats.cache_misses
+    assert sum(plain.stats.cache_hits.values()) == 1
+    assert np.array_equal(out, out_plain)
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "other"))
+    alone = njit(parallel=True, fastmath=True, cache=True)(make())
+    alone(a, out_plain)
+    assert sum(alone.stats.cache_misses.values()) == 1  # what the test would see without the twin

@@ -2,7 +2,6 @@
 exactly the state of the run that never stopped (same backend and precision), for every
 integrator; checkpoints of another case or format are refused with one clear line."""
 import json
-import os
 
 import numpy as np
 import pytest
@@ -11,33 +10,6 @@ from wcsph import Simulation
 from wcsph.cli import main
 from wcsph.case.config import load
 from wcsph.errors import CaseError
-
-#: one worker runs them all: each worker compiles these loops into a cache of its own
-#: (``own_numba_cache``), and two workers compiled them twice in a cold suite
-pytestmark = pytest.mark.xdist_group("restart")
-
-
-@pytest.fixture(scope="session")
-def _own_cache(request, tmp_path_factory):
-    """This worker's cache directory, kept between sessions in pytest's cache (so that a warm
-    session loads every loop, as one process)."""
-    cache = getattr(request.config, "cache", None)
-    if cache is None:  # run with -p no:cacheprovider
-        return tmp_path_factory.mktemp("numba_cache")
-    return cache.mkdir("numba-restart-" + os.environ.get("PYTEST_XDIST_WORKER", "main"))
-
-
-@pytest.fixture(autouse=True)
-def own_numba_cache(_own_cache, monkeypatch):
-    """The loops these tests compile go to a cache of this worker's own. The same loop, compiled
-    by the running process or loaded from a cache that another process wrote, can differ in
-    the last bits (README, "Checkpoint and restart"): with another worker filling the shared
-    cache while a test ran, the whole run and the restarted one got different copies (three
-    cold runs of this file on two workers in three)."""
-    import numba
-
-    monkeypatch.setattr(numba.config, "CACHE_DIR", str(_own_cache))
-
 
 INTEGRATORS = ["symplectic_euler", "verlet", "symplectic_verlet", "rk4", "rk45", "midpoint"]
 

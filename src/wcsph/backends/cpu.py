@@ -7,6 +7,7 @@ import numba
 from numba import literal_unroll, njit, prange
 from numba.extending import overload, register_jitable
 
+from .numba_cache import saved_first
 from .walk import make_periodic_walk, make_run_visitor, particle_check
 
 
@@ -34,6 +35,7 @@ def _cell_id(x, i, origin, inv_cell, nx, ny, nz, ncells, k):
     return cx + nx * (cy + ny * cz) if inside else ncells
 
 
+@saved_first
 @njit(parallel=True, fastmath=True, cache=True)
 def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
     for i in prange(x.shape[1]):
@@ -150,6 +152,7 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, bra
     if periodic is not None and any(periodic):
         walk = make_periodic_walk(dim, visit1, visit2, use2, zero, periodic, inline="always")
 
+        @saved_first
         @njit(parallel=True, fastmath=True, cache=cache)
         def run_periodic(I, J1, J2, P, G):
             for i in prange(I.x.shape[1]):
@@ -159,6 +162,7 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, bra
 
         return _chunked(run_periodic)
 
+    @saved_first
     @njit(parallel=True, fastmath=True, cache=cache)
     def run(I, J1, J2, P, G):
         k = G.k
@@ -221,6 +225,7 @@ def _threads_for(n):
 
 
 def _make_map_loop(fn):
+    @saved_first
     @njit(parallel=True, fastmath=True, cache=True)
     def run(I, P):
         for i in prange(I.x.shape[1]):
@@ -234,6 +239,7 @@ def _make_map_loop(fn):
 
 
 def _make_fused_map_loop(fn, then):
+    @saved_first
     @njit(parallel=True, fastmath=True, cache=True)
     def run(I, P, J):
         for i in prange(I.x.shape[1]):
@@ -248,6 +254,7 @@ def _make_fused_map_loop(fn, then):
 
 
 def _then_after(run_pass, then):
+    @saved_first
     @njit(parallel=True, fastmath=True, cache=True)
     def run(I, S, R, P):
         for i in prange(I.x.shape[1]):
@@ -266,6 +273,7 @@ EVERY = np.zeros(0, dtype=np.uint8)
 
 
 def _make_reduce_loop(fn):
+    @saved_first
     @njit(parallel=True, fastmath=True, cache=True)
     def run(I, P, owned):
         s1 = 0.0
