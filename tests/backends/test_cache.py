@@ -173,3 +173,35 @@ def test_a_loop_the_cache_lacks_is_loaded_from_it_by_the_process_that_compiles_i
     alone = njit(parallel=True, fastmath=True, cache=True)(make())
     alone(a, out_plain)
     assert sum(alone.stats.cache_misses.values()) == 1  # what the test would see without the twin
+
+
+def test_a_cache_that_cannot_be_written_leaves_the_loop_running(tmp_path, monkeypatch):
+    """A full disk (or a cache directory gone read-only) while a loop is saved: the save is
+    skipped and the loop runs as compiled, here through ``saved_first``'s twin too; Numba's
+    own save raised out of the loop's first call. Nothing is left in the cache."""
+    import errno
+
+    import numba
+    import numpy as np
+    from numba import njit, prange
+    from numba.core.caching import IndexDataCacheFile
+
+    from wcsph.backends.numba_cache import saved_first
+
+    def full(self, name, data):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(IndexDataCacheFile, "_save_data", full)
+
+    def double(a, out):
+        for i in prange(a.size):
+            out[i] = 2.0 * a[i]
+
+    run = saved_first(njit(parallel=True, fastmath=True, cache=True)(double))
+    a = np.arange(10.0)
+    out = np.empty_like(a)
+    run(a, out)
+    assert np.array_equal(out, 2.0 * a)
+    assert sum(run.stats.cache_misses.values()) == 1  # compiled here, as without a cache
+    assert not [p for p in tmp_path.rglob("*") if p.suffix in (".nbi", ".nbc")]

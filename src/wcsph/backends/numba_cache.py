@@ -18,7 +18,9 @@ renamed or moved one of them, unpickling an old index raises (``AttributeError: 
 attribute 'WallView'``, ``ModuleNotFoundError: wcsph.models.bi``) out of the first call of a
 loop, a traceback for the user. Numba already treats an index of another Numba version as
 empty and recompiles; this extends that to an index whose types no longer exist: the loop
-is compiled again and the index rewritten.
+is compiled again and the index rewritten. A save that fails (a full disk, a cache directory
+that went read-only during the run) is skipped: the loop runs as compiled, and the next
+process compiles it again; Numba's own save raised out of the run's first step.
 
 **Compiled or loaded.** A cached ``parallel=True, fastmath=True`` loop ran other machine code
 in the process that compiled it than in every process that loaded it (``saved_first``): a
@@ -74,16 +76,19 @@ def install():
             return {}
 
     def save(self, key, data):
-        with _locked(self._index_path, exclusive=True):
-            overloads = self._load_index()
-            name = overloads.get(key)
-            if name is None:
-                taken = set(overloads.values())
-                name = next(n for n in (self._data_name(i) for i in itertools.count(1)) if n not in taken)
-            self._save_data(name, data)  # before the index names it
-            if overloads.get(key) != name:
-                overloads[key] = name
-                self._save_index(overloads)
+        try:
+            with _locked(self._index_path, exclusive=True):
+                overloads = self._load_index()
+                name = overloads.get(key)
+                if name is None:
+                    taken = set(overloads.values())
+                    name = next(n for n in (self._data_name(i) for i in itertools.count(1)) if n not in taken)
+                self._save_data(name, data)  # before the index names it
+                if overloads.get(key) != name:
+                    overloads[key] = name
+                    self._save_index(overloads)
+        except OSError:  # a full disk, a directory gone read-only: the loop runs, uncached
+            pass
 
     load = IndexDataCacheFile.load
 
