@@ -276,3 +276,73 @@ def test_the_gpu_benchmark_runs_and_counts_in_the_simulator():
     assert 150 <= res["fluid"] <= 250, res
     assert res["launches"] == 8 and res["syncs"] == 1, res
     assert res["ms_per_step"] > 0 and res["M_per_s"] > 0, res
+
+
+DEFERRED = FAST_SIMULATOR + r"""
+import json, numpy as np, wcsph
+from numba.cuda.simulator.cudadrv import devicearray
+from wcsph.case.config import validate
+from wcsph.errors import SimulationError
+
+copies = [0]
+original = devicearray.FakeCUDAArray.copy_to_host
+def counted(*a, **k):
+    copies[0] += 1
+    return original(*a, **k)
+devicearray.FakeCUDAArray.copy_to_host = counted
+
+def case(every, c0=100.0):
+    return validate({"name": "leaving", "dim": 2, "dp": 0.1, "precision": "float64",
+                     "fluid": [{"min": [0.1, 0.0], "max": [0.6, 0.5], "velocity": ["30.0", "0.0"]}],
+                     "domain": {"min": [-0.2, -0.2], "max": [0.6, 0.7]}, "model": {"name": "bi"},
+                     "physics": {"gravity": [0.0, -9.81], "speed_of_sound": c0},
+                     "time": {"end": 1.0, "max_steps": 8, "dt": 4e-4, "check_interval": every},
+                     "output": {"progress": False}})
+
+res = {}
+for be, every in (("cpu", 1), ("cuda", 1), ("cuda", 4)):
+    sim = wcsph.Simulation(case(every), backend=be)
+    for _ in range(3):  # warm-up: the first steps upload and allocate
+        sim.step(sim.time_step())
+    copies[0] = 0
+    for _ in range(4):
+        sim.step(sim.time_step())
+    stepping = copies[0]
+    sim.run()
+    x, v, ids = sim.host(sim.fluid, "x", "v", "id")
+    o = np.argsort(ids)
+    res[f"{be}{every}"] = (x[:, o], v[:, o], sim.fluid.n, sim.dropped, sim.t, stepping, sim.check.every)
+msgs = {}
+for be, every in (("cpu", 1), ("cuda", 4)):
+    try:  # 30 m/s against a sound speed of 20 m/s: the first step's check stops the run
+        wcsph.Simulation(case(every, c0=20.0), backend=be).run()
+    except SimulationError as e:
+        msgs[be] = str(e)
+c, g1, g4 = res["cpu1"], res["cuda1"], res["cuda4"]
+print(json.dumps({"n": [c[2], g1[2], g4[2]], "dropped": [c[3], g1[3], g4[3]], "t": [c[4], g1[4], g4[4]],
+                  "copies": [g1[5], g4[5]], "every": [g1[6], g4[6]],
+                  "same": bool(np.array_equal(g1[0], g4[0]) and np.array_equal(g1[1], g4[1])),
+                  "dx": float(np.abs(c[0] - g4[0]).max()) if c[2] == g4[2] else None, "messages": msgs}))
+"""
+
+
+def test_a_constant_step_reads_the_device_every_few_steps():
+    """At a constant time step the host reads the device's checks every ``check_interval``
+    steps (``solver.check``): over four steps, one copy to the host instead of four. A block
+    thrown out of the domain at 30 m/s (particles leave at the fourth of eight steps, between
+    two reads): the device parks them beyond the grid until the read and drops them then, and
+    every number is the one of the run that reads each step, bit for bit, and the CPU's to
+    round-off; the same particles are dropped. A run that blows up names the same first bad
+    step as the CPU's, read three steps later."""
+    env = _env()
+    r = subprocess.run([sys.executable, "-c", DEFERRED], capture_output=True, text=True, env=env, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    res = json.loads(r.stdout.strip().splitlines()[-1])
+    assert res["every"] == [1, 4], res
+    assert res["copies"][0] >= 4 and res["copies"][1] == 1, res  # each check (and a count), one ring
+    assert res["dropped"][0] == res["dropped"][1] == res["dropped"][2] > 0, res
+    assert res["n"][0] == res["n"][1] == res["n"][2] and res["t"][0] == res["t"][2], res
+    assert res["same"] and res["dx"] < 1e-12, res
+    m = res["messages"]
+    assert "runaway velocity" in m["cpu"] and "(step 1)" in m["cpu"], m
+    assert m["cuda"].split(";")[0] == m["cpu"].split(";")[0], m

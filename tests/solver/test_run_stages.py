@@ -123,3 +123,61 @@ def test_the_wall_corrections_in_the_last_map_are_those_of_their_own_stage():
     assert np.array_equal(fused, apart)
     free, _ = _run_bi(dict(extra, **{"model.enableElasticBounce": False}))
     assert not np.array_equal(fused, free)
+
+
+class _Ring:
+    """A backend whose check leaves each step's figures on a 'device' until read."""
+
+    defers_check = True
+
+    def __init__(self, rows):
+        self.rows, self.measured, self.reads, self.sorts = rows, [], 0, 0
+
+    def check_later(self, pset, row, rows):
+        self.measured.append(self.rows[len(self.measured)])
+
+    def read_checks(self, pset, rows):
+        self.reads += 1
+        out, self.measured = self.measured[:rows], self.measured[rows:]
+        return out
+
+    def sort(self, pset, grid):
+        self.sorts += 1
+        return 2
+
+
+def _deferred(rows, every):
+    be = _Ring(rows)
+    s = _state(backend=be, fluid=SimpleNamespace(n=100), grid=None, dropped=0, c0=20.0, steps=0, t=0.0)
+    check = Check()
+    check.defer(every)
+    return s, be, check
+
+
+def test_checks_read_every_few_steps_name_the_first_bad_step():
+    """Rows measured on a device are read every ``every`` steps and verified in step order: a
+    runaway at the second step stops the run at the read after the third, naming the second."""
+    ok, fast = (1.0, 1.0, 0, 0), (900.0, 1.0, 0, 0)  # |v|^2 = 900: 30 m/s against c0 = 20
+    s, be, check = _deferred([ok, fast, ok, ok], every=3)
+    s.steps, s.t = 1, 0.1
+    check(s)
+    s.steps, s.t = 2, 0.2
+    check(s)
+    assert be.reads == 0
+    s.steps, s.t = 3, 0.3
+    with pytest.raises(SimulationError, match="runaway") as e:
+        check(s)
+    assert "step 2" in str(e.value) and "t = 0.2 s" in str(e.value) and be.reads == 1
+
+
+def test_a_read_that_finds_particles_outside_drops_them():
+    """Rows that counted particles outside the grid: the read drops them with a sort, and
+    the state's count of particles is the row's; nothing pending after a read."""
+    s, be, check = _deferred([(1.0, 1.0, 0, 0), (1.0, 1.0, 0, 2)], every=4)
+    for k in (1, 2):
+        s.steps, s.t = k, 0.1 * k
+        check(s)
+    check.read(s)
+    assert be.reads == 1 and be.sorts == 1 and s.dropped == 2 and s.n_owned == 98 and not check.pending
+    check.read(s)  # nothing left to read: no copy
+    assert be.reads == 1

@@ -349,6 +349,8 @@ class CpuBackend:
 
     #: a tail (``make_tail``) leaves the check to ``check`` (a reduction of its own)
     fuses_check = False
+    #: the check's figures are on the host at once: no ring to read every few steps
+    defers_check = False
 
     def make_tail(self, dim, dtype, fn, walk=None, parts=None):
         """The step's last map fn(i, I, P) followed, when ``walk`` = (init, pair, finish) is

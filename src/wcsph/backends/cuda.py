@@ -379,6 +379,11 @@ def _wrap(x, lo, length, inv_cell, origin, k, real, axes):
             x[a, i] = xa
 
 
+#: the x at which a particle that left the grid waits for the host to drop it
+#: (``CudaBackend.check_later``): finite, far beyond any grid, so that it cannot walk back in
+PARKED = 1.0e30
+
+
 def _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic=None):
     """body(i, I, J1, J2, P, G): particle i's walk over the cells around it and its
     ``finish``, the same walk as the CPU backend's (a device function of the pass kernels and
@@ -390,6 +395,9 @@ def _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic=None):
 
         @cuda.jit(device=True)
         def body_periodic(i, I, J1, J2, P, G):
+            if I.cell[i] >= G.ncells:  # parked (``body`` below)
+                I.x[0, i] = PARKED
+                return
             zi = I.x[2, i] if dim == 3 else zero
             acc = walk(i, I.x[0, i], I.x[1, i], zi, I.cell[i], I, J1, J2, P, G, init(i, I, P))
             finish(i, I, P, acc)
@@ -399,6 +407,9 @@ def _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic=None):
     @cuda.jit(device=True)
     def body(i, I, J1, J2, P, G):
         c = I.cell[i]
+        if c >= G.ncells:  # left the grid since a check the host has not read yet: parked
+            I.x[0, i] = PARKED
+            return
         xi = I.x[0, i]
         yi = I.x[1, i]
         zi = I.x[2, i] if dim == 3 else zero
@@ -971,23 +982,58 @@ class CudaBackend:
             pset.__dict__["_stays"] = (pset["x"], n, grid)  # held, not by id: no reuse of a freed id
         return vmax2, amax2, bad
 
+    @classmethod
+    def _check(cls, pset, owned, grid):
+        vmax2, amax2, bad, outside = _rows_to_host(cls._final(pset, owned, grid), CHECK_OPS)
+        return vmax2, amax2, int(bad), int(outside)
+
     @staticmethod
-    def _check(pset, owned, grid):
-        """The check's reduction; with every particle checked (``owned`` None) on a known
-        grid, it counts the cells of the set's next sort too (``_counted``). A tail that
-        measured these positions (``make_tail``) left its figures: no launch then."""
+    def _final(pset, owned, grid):
+        """The check's reduction, left on the device (a (4, 1) array); with every particle
+        checked (``owned`` None) on a known grid, it counts the cells of the set's next sort
+        too (``_counted``). A tail that measured these positions (``make_tail``) left its
+        figures: no launch then."""
         n = pset.n
         x = pset["x"]
         measured = pset.__dict__.pop("_measured", None)
         if measured is not None and measured[0] is x and measured[1] == n and owned is None:
-            final = measured[2]
-        else:
-            nb = min(REDUCE_BLOCKS, _blocks(n))
-            args = _measure_args(pset, grid if owned is None else None, nb)
-            _check_blocks[nb, THREADS](x, pset["v"], pset["dvdt"], *args[:7], _mask(owned), owned is not None,
-                                       *args[7:11], grid is not None and owned is None, *args[11:])
-            if grid is not None and owned is None:
-                pset.__dict__["_counted"] = (x, n, grid)
-            final = args[9]
-        vmax2, amax2, bad, outside = _rows_to_host(final, CHECK_OPS)
-        return vmax2, amax2, int(bad), int(outside)
+            return measured[2]
+        nb = min(REDUCE_BLOCKS, _blocks(n))
+        args = _measure_args(pset, grid if owned is None else None, nb)
+        _check_blocks[nb, THREADS](x, pset["v"], pset["dvdt"], *args[:7], _mask(owned), owned is not None,
+                                   *args[7:11], grid is not None and owned is None, *args[11:])
+        if grid is not None and owned is None:
+            pset.__dict__["_counted"] = (x, n, grid)
+        return args[9]
+
+    #: ``check_later`` and ``read_checks``: the host may read the check every few steps
+    defers_check = True
+
+    def check_later(self, pset, row, rows):
+        """The check of ``pset`` (not empty, every particle its own) into row ``row`` of a ring
+        of ``rows`` on the device, with no copy to the host (``solver.check``). The next sort
+        then takes every particle as inside the grid without asking: one that has left sorts
+        last, past the cells' runs, where the passes skip it and park it beyond the grid
+        (``_pass_body``) until ``read_checks`` tells the host and a sort drops it."""
+        ring = pset.__dict__.get("_ring")
+        if ring is None or ring.shape[0] != rows:
+            ring = pset.__dict__["_ring"] = cuda.device_array((rows, 4, 1), dtype=np.float64)
+        grid = pset.__dict__.get("_grid")
+        pset.__dict__["_stays"] = None
+        ring[row].copy_to_device(self._final(pset, None, grid))  # on the device
+        if grid is not None:
+            pset.__dict__["_stays"] = (pset["x"], pset.n, grid)
+
+    def read_checks(self, pset, rows):
+        """The first ``rows`` rows of the ring ``check_later`` fills, in one copy to the host:
+        (max |v|^2, max |a|^2, non-finite count, count outside the grid) each. When any found
+        a particle outside, the next sort reads its count back (and drops them)."""
+        r = pset.__dict__["_ring"][:rows].copy_to_host()[:, :, 0]
+        out = []
+        for row in r:
+            vmax2, amax2, bad, outside = (0.0 if (op == "max" and v == -math.inf) else float(v)
+                                          for v, op in zip(row, CHECK_OPS))
+            out.append((vmax2, amax2, int(bad), int(outside)))
+        if any(o[3] for o in out):
+            pset.__dict__["_stays"] = None
+        return out

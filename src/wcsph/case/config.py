@@ -105,6 +105,8 @@ SCHEMA = {
         "dtInit": ("float", 0.0, NONNEG),
         "dtMin": ("float", 0.0, NONNEG),
         "max_steps": ("int", 0, NONNEG),
+        # steps between the host's reads of a GPU's checks at a constant dt (solver.check)
+        "check_interval": ("int", 10, POS),
     }, REQUIRED, None),
     "probes": ([PROBE], [], None),
     "grids": ([GRID], [], None),

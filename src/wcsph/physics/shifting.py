@@ -183,5 +183,6 @@ add("shifting", Choice(
     "DeltaPlus", "Sun, Colagrossi, Marrone & Zhang (2017), delta+-SPH",
     "dr_i = -CFL Ma (2h)^2 sum_j (1 + R (W/W(dp))^4) grad W_ij V_j",
     params=(SURFACE, MAX, NEAR_WALLS), p_fields=FIELDS, values=_values,
-    step_values=lambda q, dt: {"shift_d": 4.0 * q.h * dt}, build=_build(False), implies=frozenset({"wall_volume"})))
+    step_values=lambda q, dt: {"shift_d": 4.0 * q.h * dt}, build=_build(False),
+    implies=frozenset({"wall_volume", "speed"})))
 

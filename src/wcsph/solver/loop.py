@@ -78,6 +78,11 @@ def _run(sim, output, end_time, progress):
         with Progress(end, enabled=show) as bar, stop:
             while True:
                 written = False
+                ending = state.t >= end - slack or bool(max_steps and state.steps >= max_steps)
+                if ending or stop.signal is not None or (writer is not None and (
+                        frames.due(state.t, slack) or rows.due(state.t, slack) or checkpoints.due(state.t, slack)
+                        or any(g.due(state.t, slack) for g in grids))):
+                    sim.read_checks()  # a device's checks of the steps since the last read, first
                 if writer is not None:
                     if frames.due(state.t, slack):
                         clock.io(frames)
@@ -94,6 +99,7 @@ def _run(sim, output, end_time, progress):
                     stopping = True
                     stop.signal = stop.signal or "a signal to another rank"
                 if stopping:
+                    sim.read_checks()
                     status = "interrupted"
                     message = f"stopped by {stop.signal} at t = {state.t:.6g} s (step {state.steps})"
                     if writer is not None:
@@ -101,7 +107,7 @@ def _run(sim, output, end_time, progress):
                             writer.write()
                         message += f"; state written to {writer.last_good}"
                     break
-                if state.t >= end - slack or (max_steps and state.steps >= max_steps):
+                if ending:
                     break
                 # not clipped onto the end time: the run ends at the first step at or past it (as
                 # DualSPHysics' does), so a run extended past its end is the run made straight

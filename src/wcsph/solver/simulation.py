@@ -76,6 +76,17 @@ def fuse_tail(state, integrator, bodies, open_boundaries, damping=None):
         integrator.fuse_tail(walk, model.wall_corrections[0] if walk is not None else None)
 
 
+def read_every_few_steps(state, bodies, open_boundaries):
+    """Whether the host may read the check's figures every ``time.check_interval`` steps
+    (``solver.check``): a backend that keeps them on its device, a constant time step, one
+    process, no open boundary or floating body, and no choice that reads the step's largest
+    speed."""
+    case = state.case
+    return (state.backend.defers_check and case["time"]["check_interval"] > 1
+            and case["time"]["dt"] > 0 and state.par is None and open_boundaries is None and not bodies.floating
+            and "speed" not in state.model.implies)
+
+
 class Simulation:
     """A case set up on a backend, ready to step. ``case`` is a validated case dict.
     ``comm``: the MPI communicator to share the case over (``parallel``); by default the
@@ -100,6 +111,9 @@ class Simulation:
         damping = Damping(self.backend, self.dim, case["damping"]) if case["damping"] else None
         self.stages = stages(self.integrator, self.bodies, self.open, damping)
         fuse_tail(self.state, self.integrator, self.bodies, self.open, damping)
+        self.check = self.stages[-1]
+        if read_every_few_steps(self.state, self.bodies, self.open):
+            self.check.defer(case["time"]["check_interval"])
         self.setup_time = time.perf_counter() - t_setup  # compiles (or loads) the loops
 
     def __getattr__(self, name):  # the run state's fields
@@ -114,6 +128,16 @@ class Simulation:
     def time_step(self):
         """The next step's size (``solver.timestep``)."""
         return self.time_step_rule(self.state)
+
+    def read_checks(self):
+        """The checks the device holds, read and verified (before the host looks at the state)."""
+        self.check.read(self.state)
+
+    def host(self, pset, *names):
+        """Host copies of ``names`` of a particle set, after the device's pending checks
+        (a particle parked between two reads is dropped first)."""
+        self.read_checks()
+        return self.state.host(pset, *names)
 
     def step(self, dt):
         """One time step of at most ``dt`` through the stages; returns the step taken (an
