@@ -36,3 +36,4 @@ WCSPH_CUDA_DEVICE=1 timeout 240 python3 -m pytest -q -p no:cacheprovider -o addo
     tests/backends/test_cuda_sim.py -k "not benchmark and not reads_the_device_once" 2>&1 | tee "$OUT/tests.log"
 
 timeout 240 python3 benchmarks/gpu.py --json 2>&1 | tee "$OUT/gpu.jsonl"
+timeout 120 python3 benchmarks/gpu.py --json --constant-dt --cases 2d-100k spheric2 2>&1 | tee -a "$OUT/gpu.jsonl"

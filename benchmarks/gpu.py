@@ -3,7 +3,7 @@ launches and host synchronisations (device-to-host copies, ``cuda.synchronize``)
 for the cases issue 21 names, as a markdown table for the README.
 
     python benchmarks/gpu.py [--cases 2d-100k 2d-1.6M spheric2 3d-5M] [--steps 50]
-                             [--precision float32] [--scale 1.0] [--json] [--threads N]
+                             [--precision float32] [--scale 1.0] [--constant-dt] [--json] [--threads N]
 
 Each case is set up at its particle count (dp from the fluid's volume), stepped ``--warmup``
 times (compilation, Numba's cache), then counted over ``--count`` steps (launches and
@@ -93,11 +93,14 @@ def measure(name, args):
 
     case_name, n, dp, note = CASES[name]
     dp = dp_for(case_name, n, dp, args.scale)
-    case = load(case_name, [("dp", dp), ("precision", args.precision), ("backend", "cuda"),
-                            ("output.vtk", False), ("output.progress", False)])
+    over = [("dp", dp), ("precision", args.precision), ("backend", "cuda"), ("output.vtk", False),
+            ("output.progress", False)]
     t0 = time.perf_counter()
-    sim = wcsph.Simulation(case)
+    sim = wcsph.Simulation(load(case_name, over))
     setup = time.perf_counter() - t0
+    if args.constant_dt:  # the adaptive rule's first step, kept (the host then reads every few steps)
+        dt = sim.time_step()
+        sim = wcsph.Simulation(load(case_name, over + [("time.dt", dt)]))
 
     def advance(k):
         for _ in range(k):
@@ -129,7 +132,8 @@ def measure(name, args):
     return {"case": name, "setup": case_name, "dp": dp, "fluid": int(sim.n_fluid()), "walls": int(sim.walls.n),
             "ms_per_step": ms, "M_per_s": sim.n_fluid() / ms * 1e-3,
             "launches": counter.counts["launches"] / args.count, "syncs": counter.counts["syncs"] / args.count,
-            "setup_s": setup, "note": note}
+            "setup_s": setup, "note": note, "dt": "constant" if args.constant_dt else "adaptive",
+            "check_every": sim.check.every}
 
 
 def device_name():
@@ -156,6 +160,9 @@ def main(argv=None):
     ap.add_argument("--count", type=int, default=3, help="steps over which launches and syncs are counted")
     ap.add_argument("--steps", type=int, default=50, help="steps per timed window")
     ap.add_argument("--windows", type=int, default=3)
+    ap.add_argument("--constant-dt", action="store_true",
+                    help="a constant time step (the adaptive rule's first), as TNL-SPH runs its cases: the host "
+                         "reads the checks every time.check_interval steps")
     ap.add_argument("--json", action="store_true", help="one JSON line per case instead of the table")
     ap.add_argument("--threads", type=int, default=0,
                     help="threads per block (default the backend's; fewer run faster in the simulator, same counts)")
@@ -165,7 +172,7 @@ def main(argv=None):
 
         cuda_backend.THREADS = args.threads
     if not args.json:
-        print(f"{args.precision}, {device_name()}")
+        print(f"{args.precision}, {'constant' if args.constant_dt else 'adaptive'} time step, {device_name()}")
         print("| case | fluid particles | ms/step | M fluid particle-steps/s | launches/step | syncs/step | compared with |")
         print("|---|---:|---:|---:|---:|---:|---|")
     for name in args.cases:
