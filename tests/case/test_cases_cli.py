@@ -112,6 +112,7 @@ def test_cli_runs_a_case_and_writes_outputs(tmp_path):
         assert key in summary
     assert summary["dim"] == 2 and summary["dp"] == 0.05 and summary["n_fluid"] == 20 * 40
     assert summary["steps"] > 10 and summary["particle_steps_per_s"] > 0
+    assert summary["checks_read_every"] == 1  # the CPU's checks are on the host each step
     vtus = sorted(out.glob("fluid_*.vtu"))
     assert len(vtus) == 3  # t = 0, 0.025, 0.05
     mesh = meshio.read(vtus[-1])

@@ -185,6 +185,7 @@ def _summary(sim, status, message, clock):
         "compile_time_s": sim.setup_time + (clock.compile_time or 0.0), "io_time_s": clock.io_time,
         "stepping_time_s": stepping,
         "particle_steps_per_s": n_fluid * timed_steps / stepping if stepping > 0 else 0.0,
+        "checks_read_every": sim.check.every,  # steps between the host's reads of the checks
     }
     if par is not None:  # the decomposition: ranks, cuts, the exchanges' share of the time
         share = par.sum([par.exchange_time, par.n_owned]) / par.size
