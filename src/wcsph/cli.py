@@ -263,7 +263,9 @@ def _run(args, print):
         ranks = f" on {sim.par.size} MPI ranks (slabs along {'xyz'[sim.par.axis]})" if sim.par is not None else ""
         print(f"{case['name']}: {case['dim']}D, dp = {case['dp']:g} m, {sim.n_fluid()} fluid and "
               f"{sim.walls.n} wall particles, c0 = {sim.c0:.3g} m/s, {case['precision']} on "
-              f"{sim.backend.name}{ranks}; output in {out}", flush=True)
+              f"{sim.backend.name}{ranks}"
+              + (f", its checks read every {sim.check.every} steps" if sim.check.every > 1 else "")
+              + f"; output in {out}", flush=True)
         for w in sim.warnings:
             print(f"wcsph: warning: {w}", file=sys.stderr, flush=True)
         summary = sim.run(output=out, progress=not args.no_progress and case["output"]["progress"])
