@@ -749,10 +749,14 @@ def _counter():
     return _OPS["counter"]
 
 
-def _rows_to_host(final, ops):
-    """The reduced rows copied to the host (a max over no column: 0)."""
-    r = final.copy_to_host()[:, 0]
+def _row_values(r, ops):
+    """Reduced rows as host floats (a max over no column: 0)."""
     return tuple(0.0 if (op == "max" and v == -math.inf) else float(v) for v, op in zip(r, ops))
+
+
+def _rows_to_host(final, ops):
+    """The reduced rows copied to the host (``_row_values``)."""
+    return _row_values(final.copy_to_host()[:, 0], ops)
 
 
 def _reduce_rows(out, ops, owned=None):
@@ -1028,12 +1032,8 @@ class CudaBackend:
         """The first ``rows`` rows of the ring ``check_later`` fills, in one copy to the host:
         (max |v|^2, max |a|^2, non-finite count, count outside the grid) each. When any found
         a particle outside, the next sort reads its count back (and drops them)."""
-        r = pset.__dict__["_ring"][:rows].copy_to_host()[:, :, 0]
-        out = []
-        for row in r:
-            vmax2, amax2, bad, outside = (0.0 if (op == "max" and v == -math.inf) else float(v)
-                                          for v, op in zip(row, CHECK_OPS))
-            out.append((vmax2, amax2, int(bad), int(outside)))
+        out = [(vmax2, amax2, int(bad), int(outside)) for vmax2, amax2, bad, outside in
+               (_row_values(row, CHECK_OPS) for row in pset.__dict__["_ring"][:rows].copy_to_host()[:, :, 0])]
         if any(o[3] for o in out):
             pset.__dict__["_stays"] = None
         return out

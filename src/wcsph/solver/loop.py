@@ -77,23 +77,17 @@ def _run(sim, output, end_time, progress):
     try:
         with Progress(end, enabled=show) as bar, stop:
             while True:
-                written = False
                 ending = state.t >= end - slack or bool(max_steps and state.steps >= max_steps)
-                if ending or stop.signal is not None or (writer is not None and (
-                        frames.due(state.t, slack) or rows.due(state.t, slack) or checkpoints.due(state.t, slack)
-                        or any(g.due(state.t, slack) for g in grids))):
+                callbacks = (frames, rows, *grids, checkpoints) if writer is not None else ()
+                due = [c for c in callbacks if c.due(state.t, slack)]
+                if due or ending or stop.signal is not None:
                     sim.read_checks()  # a device's checks of the steps since the last read, first
-                if writer is not None:
-                    if frames.due(state.t, slack):
-                        clock.io(frames)
-                        written = True
-                    if rows.due(state.t, slack):
-                        clock.io(rows)
-                    for g in grids:
-                        if g.due(state.t, slack):
-                            clock.io(g)
-                    if checkpoints.due(state.t, slack):
-                        checkpoints()
+                for c in due:
+                    if c is checkpoints:
+                        c()
+                    else:
+                        clock.io(c)
+                written = frames in due
                 stopping = stop.signal is not None
                 if par is not None and par.any(stopping):  # every rank stops at the same step
                     stopping = True

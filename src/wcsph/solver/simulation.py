@@ -111,7 +111,7 @@ class Simulation:
         damping = Damping(self.backend, self.dim, case["damping"]) if case["damping"] else None
         self.stages = stages(self.integrator, self.bodies, self.open, damping)
         fuse_tail(self.state, self.integrator, self.bodies, self.open, damping)
-        self.check = self.stages[-1]
+        self.check = next(s for s in self.stages if isinstance(s, Check))
         if read_every_few_steps(self.state, self.bodies, self.open):
             self.check.defer(case["time"]["check_interval"])
         self.setup_time = time.perf_counter() - t_setup  # compiles (or loads) the loops
