@@ -55,7 +55,7 @@ def test_dam_break_3d_runs_and_stays_physical(tmp_path):
     ek = [float(r["kinetic_energy"]) for r in rows]
     ep = [float(r["potential_energy"]) for r in rows]
     assert ek[-1] > 0 and ep[-1] < ep[0]
-    # energy can only be dissipated (XSPH, viscosity): Ek gained <= Ep lost
+    # energy can only be dissipated (viscosity, density diffusion): Ek gained <= Ep lost
     assert ek[-1] - ek[0] <= (ep[0] - ep[-1]) * 1.01
 
 

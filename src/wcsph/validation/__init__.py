@@ -114,10 +114,12 @@ def poiseuille_open(quick, overrides=(), times=(1.0, 2.0, 4.0)):
                   f"{sim.open.created}, removed {sim.open.removed}", curves, ("u_x [m/s]", "y [m]"))
 
 
-#: SPHERIC 2 with the classic model: the settings of ``dam_break_3d`` (XSPH epsilon = 0.01,
-#: water's viscosity, Adami's wall pressure, no wall friction) on the same geometry
-SPHERIC2_CLASSIC = [("model", {"name": "classic", "xsph_epsilon": 0.01, "ViscousTerm": "PhysicalViscosity_MVT",
-                               "dynamicViscosity": 1.0e-3})]
+#: SPHERIC 2 with the classic model: the settings of ``dam_break_3d`` (continuity density with
+#: Fourtakas' diffusion, the linear EOS unclamped, no XSPH, water's viscosity, Adami's wall
+#: pressure, no wall friction) on the same geometry
+SPHERIC2_CLASSIC = [("model", {"name": "classic", "density": "continuity", "DiffusiveTerm": "FourtakasDiffusiveTerm",
+                               "EOS": "LinearizedColeEquationOfState", "xsph": "None",
+                               "ViscousTerm": "PhysicalViscosity_MVT", "dynamicViscosity": 1.0e-3})]
 
 #: the classic model on the same channels: Akinci walls with the no-slip velocity of Adami et
 #: al. (2012), density summation, Tait EOS, Morris viscosity, no XSPH
