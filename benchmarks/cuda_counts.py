@@ -59,7 +59,7 @@ def main(argv=None):
         view as its members'."""
         if isinstance(a, tuple):
             return sum(leaves(b) for b in a)
-        if hasattr(a, "shape") and hasattr(a, "strides"):
+        if hasattr(a, "shape") and hasattr(a, "strides") and len(a.shape):  # not a NumPy scalar
             return 5 + 2 * len(a.shape)
         return 1
 
@@ -81,6 +81,9 @@ def main(argv=None):
 
     kernel.FakeCUDAKernel.__call__ = call
     wrap(devicearray.FakeCUDAArray, "copy_to_host", "device->host copy")
+    # an upload into an existing device array (P's record): a host source, not a device one
+    wrap(devicearray.FakeCUDAArray, "copy_to_device",
+         lambda args: "host->device copy" if not hasattr(args[1], "copy_to_host") else "device->device copy")
     import numba.cuda as cuda
 
     for name, key in (("device_array", "allocation"), ("to_device", "host->device copy")):

@@ -18,7 +18,9 @@ Everything stays on the device, with numba-cuda alone (no CuPy), the same in the
   sort of those positions keeps every particle without reading the count back, so a step
   whose time step needs the check copies one small array to the host, once.
 
-The grid constants are uploaded once per grid.
+The grid constants are uploaded once per grid. The step's parameters ``P`` are one device
+record per launch, not ~40 numbers by value, uploaded asynchronously only when they change
+(``_params``); each kernel reads the record back into the namedtuple the CPU passes.
 """
 import math
 
@@ -85,6 +87,98 @@ SCAN_CHUNKS = 64 * THREADS
 
 def _blocks(n):
     return max(1, math.ceil(n / THREADS))
+
+
+# ------------------------------------------------------------------ P on the device
+#: parameter records in flight: the host waits for the oldest upload only when this many
+#: distinct ``P`` have been uploaded since it was (never at a constant step, where P holds)
+PARAM_SLOTS = 4
+
+
+def _record_dtype(P):
+    """The record a kernel reads ``P`` (a namedtuple of numbers) from: its fields in order."""
+    return np.dtype((np.record, [(f, np.asarray(v).dtype) for f, v in zip(P._fields, P)]), align=True)
+
+
+def params_record(P):
+    """``P`` as a one-record host array (what ``_params`` uploads, and what ``validation.ptx``
+    types the kernels with)."""
+    a = np.zeros(1, dtype=_record_dtype(P))
+    a[0] = tuple(P)
+    return a
+
+
+_LOADERS = {}
+
+
+def _loader(T):
+    """load(Pd) -> T(Pd[0].f0, Pd[0].f1, ...): the record read back into the namedtuple the
+    physics takes, so the pair functions compile with the same ``P`` type as on the CPU (its
+    fields in registers, as the by-value arguments were; the fields a kernel never reads are
+    never loaded)."""
+    if T not in _LOADERS:
+        ns = {"T": T}
+        exec("def load(Pd):\n    r = Pd[0]\n    return T(" + ", ".join(f"r.{f}" for f in T._fields) + ")\n", ns)
+        _LOADERS[T] = cuda.jit(device=True)(ns["load"])
+    return _LOADERS[T]
+
+
+def _per_params(build):
+    """kernel_of(T): ``build(load)`` for parameter tuples of type T, made the first time one
+    comes (one type per launch in practice: the model's ``Params``)."""
+    made = {}
+
+    def kernel_of(T):
+        k = made.get(T)
+        if k is None:
+            k = made[T] = build(_loader(T))
+        return k
+
+    return kernel_of
+
+
+class _ParamRing:
+    """Uploads of one record type: each distinct ``P`` copied asynchronously from a pinned
+    buffer into a device record, on the stream the kernels run on (so a record is rewritten
+    only after every launch before it has read it); the host reuses a pinned buffer once its
+    last copy has completed (an event)."""
+
+    def __init__(self, dtype):
+        self.slots = [(cuda.pinned_array(1, dtype=dtype), cuda.device_array(1, dtype=dtype), cuda.event())
+                      for _ in range(PARAM_SLOTS)]
+        self.used = [False] * PARAM_SLOTS
+        self.next = 0
+        self.last = None  # (values, device record) of the last upload
+
+    def __call__(self, P):
+        values = tuple(P)
+        if self.last is not None and self.last[0] == values:
+            return self.last[1]
+        k = self.next
+        self.next = (k + 1) % PARAM_SLOTS
+        host, dev, copied = self.slots[k]
+        if self.used[k]:
+            copied.synchronize()
+        host[0] = values
+        stream = cuda.default_stream()
+        dev.copy_to_device(host, stream=stream)
+        copied.record(stream)
+        self.used[k] = True
+        self.last = (values, dev)
+        return dev
+
+
+_RINGS = {}
+
+
+def _params(P):
+    """``P`` on the device: one array argument for a launch instead of its ~40 numbers by value,
+    uploaded only when it changed (an adaptive step's dt; never at a constant step)."""
+    key = (type(P), type(P[0]))
+    ring = _RINGS.get(key)
+    if ring is None:
+        ring = _RINGS[key] = _ParamRing(_record_dtype(P))
+    return ring(P)
 
 
 @cuda.jit(device=True)
@@ -165,13 +259,16 @@ def _place_fields(cell, start, raw, perm, groups, n_in):
 _PLACE_THEN = {}
 
 
-def _place_then(fn):
+def _place_then(fn, T):
     """``_place_fields`` with fn(d, J, P, rho) for each particle placed at d, after its
     fields (J: a view of the set's sorted fields; rho: the density just moved there): the
-    model's p and V of the step's first evaluation made in the sort's own launch."""
-    if fn not in _PLACE_THEN:
+    model's p and V of the step's first evaluation made in the sort's own launch; ``P`` of
+    type T, read from the device (``_params``)."""
+    if (fn, T) not in _PLACE_THEN:
+        load = _loader(T)
+
         @cuda.jit
-        def run(cell, start, raw, perm, groups, n_in, J, P):
+        def run(cell, start, raw, perm, groups, n_in, J, Pd):
             k = cuda.grid(1)
             if k < raw.size:
                 d, j = _place(k, cell, start, raw, perm)
@@ -182,10 +279,10 @@ def _place_then(fn):
                             dst = g[1][f]
                             for c in range(src.shape[0]):
                                 dst[c, d] = src[c, j]
-                    fn(d, J, P, J.rho[d])
+                    fn(d, J, load(Pd), J.rho[d])
 
-        _PLACE_THEN[fn] = run
-    return _PLACE_THEN[fn]
+        _PLACE_THEN[(fn, T)] = run
+    return _PLACE_THEN[(fn, T)]
 
 
 @cuda.jit
@@ -445,41 +542,42 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None
         def after(i, I, T, P):
             then(i, I, T[0], T[1], P)
 
-    @cuda.jit
-    def self1(I, P, G, T):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            body(i, I, I, I, P, G)
-            after(i, I, T, P)
+    def build(load):
+        @cuda.jit(device=True)
+        def one(I, J1, J2, Pd, G, T):
+            i = cuda.grid(1)
+            if i < I.x.shape[1]:
+                P = load(Pd)
+                body(i, I, J1, J2, P, G)
+                after(i, I, T, P)
 
-    @cuda.jit
-    def other1(I, J1, P, G, T):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            body(i, I, J1, J1, P, G)
-            after(i, I, T, P)
+        @cuda.jit
+        def self1(I, Pd, G, T):
+            one(I, I, I, Pd, G, T)
 
-    @cuda.jit
-    def self2(I, J2, P, G, T):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            body(i, I, I, J2, P, G)
-            after(i, I, T, P)
+        @cuda.jit
+        def other1(I, J1, Pd, G, T):
+            one(I, J1, J1, Pd, G, T)
 
-    @cuda.jit
-    def other2(I, J1, J2, P, G, T):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            body(i, I, J1, J2, P, G)
-            after(i, I, T, P)
+        @cuda.jit
+        def self2(I, J2, Pd, G, T):
+            one(I, I, J2, Pd, G, T)
 
-    kernels = {(True, False): self1, (False, False): other1, (True, True): self2, (False, True): other2}
+        @cuda.jit
+        def other2(I, J1, J2, Pd, G, T):
+            one(I, J1, J2, Pd, G, T)
 
-    def kernel_for(I, J1, J2, P, G, S=None, R=None):
-        """The kernel for these views and its arguments."""
+        return {(True, False): self1, (False, False): other1, (True, True): self2, (False, True): other2}
+
+    kernels_of = _per_params(build)
+
+    def kernel_for(I, J1, J2, P, G, S=None, R=None, upload=_params):
+        """The kernel for these views and its arguments (``upload``: P's form as an argument,
+        the device record by default)."""
         same = J1 is I
-        args = (I,) + (() if same else (J1,)) + ((J2,) if use2 else ()) + (P, G, () if then is None else (S, R))
-        return kernels[(same, use2)], args
+        args = (I,) + (() if same else (J1,)) + ((J2,) if use2 else ()) + (upload(P), G,
+                                                                            () if then is None else (S, R))
+        return kernels_of(type(P))[(same, use2)], args
 
     def launch(I, J1, J2, P, G, S=None, R=None):
         n = I.x.shape[1]
@@ -492,35 +590,46 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None
 
 
 def _make_map_kernel(fn):
-    @cuda.jit
-    def run(I, P):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            fn(i, I, P)
+    def build(load):
+        @cuda.jit
+        def run(I, Pd):
+            i = cuda.grid(1)
+            if i < I.x.shape[1]:
+                fn(i, I, load(Pd))
+
+        return run
+
+    kernel_of = _per_params(build)
 
     def launch(I, P):
         n = I.x.shape[1]
         if n:
-            run[_blocks(n), THREADS](I, P)
+            kernel_of(type(P))[_blocks(n), THREADS](I, _params(P))
 
-    launch.kernel = run
+    launch.kernel_of = kernel_of
     return launch
 
 
 def _make_fused_map_kernel(fn, then):
-    @cuda.jit
-    def run(I, P, J):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            fn(i, I, P)
-            then(i, J, P, I.rho[i])
+    def build(load):
+        @cuda.jit
+        def run(I, Pd, J):
+            i = cuda.grid(1)
+            if i < I.x.shape[1]:
+                P = load(Pd)
+                fn(i, I, P)
+                then(i, J, P, I.rho[i])
+
+        return run
+
+    kernel_of = _per_params(build)
 
     def launch(I, P, J):
         n = I.x.shape[1]
         if n:
-            run[_blocks(n), THREADS](I, P, J)
+            kernel_of(type(P))[_blocks(n), THREADS](I, _params(P), J)
 
-    launch.kernel = run
+    launch.kernel_of = kernel_of
     return launch
 
 
@@ -542,21 +651,27 @@ def _make_tail_kernel(dim, fn, walk, zero):
         def after(i, F, J, P, G):
             body(i, F, J, J, P, G)
 
-    @cuda.jit
-    def run(I, P, F, J, G, measure, origin, inv_cell, nx, ny, nz, ncells, k, is_max, partial, final, counter,
-            cell, count, sums, chunk):
-        tile = cuda.shared.array(THREADS, dtype=np.float64)
-        i = cuda.grid(1)
-        n = I.x.shape[1]
-        if i < n:
-            fn(i, I, P)
-            after(i, F, J, P, G)
-        if measure:  # the same for every thread: the barriers below are reached by all
-            acc = (0.0, 0.0, 0.0, 0.0)
+    def build(load):
+        @cuda.jit
+        def run(I, Pd, F, J, G, measure, origin, inv_cell, nx, ny, nz, ncells, k, is_max, partial, final,
+                counter, cell, count, sums, chunk):
+            tile = cuda.shared.array(THREADS, dtype=np.float64)
+            i = cuda.grid(1)
+            n = I.x.shape[1]
             if i < n:
-                acc = _check_one(I.x, I.v, I.dvdt, i, acc, origin, inv_cell, nx, ny, nz, ncells, k, True, cell,
-                                 count, sums, chunk)
-            _check_reduce(tile, acc, is_max, partial, final, counter)
+                P = load(Pd)
+                fn(i, I, P)
+                after(i, F, J, P, G)
+            if measure:  # the same for every thread: the barriers below are reached by all
+                acc = (0.0, 0.0, 0.0, 0.0)
+                if i < n:
+                    acc = _check_one(I.x, I.v, I.dvdt, i, acc, origin, inv_cell, nx, ny, nz, ncells, k, True, cell,
+                                     count, sums, chunk)
+                _check_reduce(tile, acc, is_max, partial, final, counter)
+
+        return run
+
+    kernel_of = _per_params(build)
 
     def launch(I, P, F=None, J=None, G=None, measure=None):
         """``measure``: (the particle set of I, its grid) to check in the same launch."""
@@ -566,38 +681,44 @@ def _make_tail_kernel(dim, fn, walk, zero):
         if F is None:
             F, J, G = I, I, _unused(np.int8)
         nb = _blocks(n)
+        run = kernel_of(type(P))
         if measure is None:
-            run[nb, THREADS](I, P, F, J, G, False, *_no_measure(I.x.dtype))
+            run[nb, THREADS](I, _params(P), F, J, G, False, *_no_measure(I.x.dtype))
             return
         pset, grid = measure
         args = _measure_args(pset, grid, nb)
-        run[nb, THREADS](I, P, F, J, G, True, *args)
+        run[nb, THREADS](I, _params(P), F, J, G, True, *args)
         pset.__dict__["_counted"] = (pset["x"], n, grid)
         pset.__dict__["_measured"] = (pset["x"], n, args[9])
 
-    launch.kernel = run
+    launch.kernel_of = kernel_of
     return launch
 
 
 def _make_reduce_kernel(fn):
-    @cuda.jit
-    def run(I, P, out):
-        i = cuda.grid(1)
-        if i < I.x.shape[1]:
-            a, b, c = fn(i, I, P)
-            out[0, i] = a
-            out[1, i] = b
-            out[2, i] = c
+    def build(load):
+        @cuda.jit
+        def run(I, Pd, out):
+            i = cuda.grid(1)
+            if i < I.x.shape[1]:
+                a, b, c = fn(i, I, load(Pd))
+                out[0, i] = a
+                out[1, i] = b
+                out[2, i] = c
+
+        return run
+
+    kernel_of = _per_params(build)
 
     def launch(I, P, owned=None):
         n = I.x.shape[1]
         if n == 0:
             return 0.0, 0.0, 0.0
         out = _scratch((3, n))
-        run[_blocks(n), THREADS](I, P, out)
+        kernel_of(type(P))[_blocks(n), THREADS](I, _params(P), out)
         return _reduce_rows(out, ("sum", "sum", "max"), owned)
 
-    launch.kernel = run
+    launch.kernel_of = kernel_of
     return launch
 
 
@@ -939,7 +1060,8 @@ class CudaBackend:
         pairs = tuple((tuple(a), tuple(b)) for a, b in groups.values())
         if n_in and refresh is not None:
             fn, _, view, P = refresh
-            _place_then(fn)[_blocks(n), THREADS](cell, start_d, raw, perm, pairs, n_in, view(pset), P)
+            _place_then(fn, type(P))[_blocks(n), THREADS](cell, start_d, raw, perm, pairs, n_in, view(pset),
+                                                          _params(P))
         elif n_in:
             _place_fields[_blocks(n), THREADS](cell, start_d, raw, perm, pairs, n_in)
         elif n:

@@ -90,7 +90,7 @@ def record(case, steps=2):
         dropped = originals["sort"](self, pset, grid, drop, refresh)
         if refresh is not None and "sort" not in placed:  # the launch that moves the fields and makes p, V
             fn, _, view, P = refresh
-            placed["sort"] = {"kind": "sort", "build": lambda: _PlaceThen(fn),
+            placed["sort"] = {"kind": "sort", "build": lambda: _PlaceThen(fn, type(P)),
                               "args": (_with_device_starts(view(pset)), P)}
             made.append(placed["sort"])
         return dropped
@@ -111,30 +111,37 @@ def record(case, steps=2):
 class _PlaceThen:
     """The sort's launch that also makes p and V (``cuda._place_then``), as a recorded kernel."""
 
-    def __init__(self, fn):
+    def __init__(self, fn, T):
         from ..backends import cuda as cb
 
-        self.kernel = cb._place_then(fn)
+        self.kernel = cb._place_then(fn, T)
+
+    def kernel_of(self, T):
+        return self.kernel
 
 
 def _kernel_args(r, dtype, dim):
-    """The CUDA kernel's arguments for a recorded call of the CPU backend's."""
+    """The CUDA kernel's arguments for a recorded call of the CPU backend's (``P`` as the
+    one-record array the kernels read it from)."""
+    from ..backends.cuda import params_record
+
     if r.kind == "reduce":
-        return r.args[:2] + (np.zeros((3, 1)),)
+        return (r.args[0], params_record(r.args[1]), np.zeros((3, 1)))
     i64 = np.zeros(4, dtype=np.int64)
     n = np.int64(4)
     if r.kind == "sort":
         x = np.zeros((dim, 4), dtype=dtype)
         f = np.zeros(4, dtype=dtype)
-        return (i64, i64, i64, i64, (((x, f[None]), (x, f[None])), ((i64[None],), (i64[None],))), n) + r.args
+        return (i64, i64, i64, i64, (((x, f[None]), (x, f[None])), ((i64[None],), (i64[None],))), n, r.args[0],
+                params_record(r.args[1]))
     if r.kind == "tail":  # (I, P[, F, J, G]) and the check's arguments
         I, P = r.args[:2]
         F, J, G = r.args[2:5] if len(r.args) >= 5 and r.args[2] is not None else (I, I, np.zeros(1, dtype=np.int8))
         f = np.zeros(3, dtype=dtype)
         part = np.zeros((4, 2))
-        return (I, P, F, J, G, True, f, f, n, n, n, n, n, np.zeros(4, dtype=np.int8), part, part[:, :1],
-                i64[:1], i64, i64, i64, n)
-    return r.args
+        return (I, params_record(P), F, J, G, True, f, f, n, n, n, n, n, np.zeros(4, dtype=np.int8), part,
+                part[:, :1], i64[:1], i64, i64, i64, n)
+    return (r.args[0], params_record(r.args[1])) + r.args[2:]
 
 
 def _backend_kernels(dtype, dim):
@@ -197,12 +204,15 @@ def compile_case(case, cc=(9, 0), steps=2, log=None):
     dtype = np.float32 if case.get("precision") == "float32" else np.float64
     for name, kernel, args in _backend_kernels(dtype, case["dim"]):
         compile_one(name, kernel, args)
+    from ..backends.cuda import params_record
+
     for k, r in enumerate(rec):
         launch = r.build()
         if hasattr(launch, "kernel_for"):  # a pass: its kernel for the views it was called with
-            compile_one(f"{r.kind} {k}", *launch.kernel_for(*r.args))
+            compile_one(f"{r.kind} {k}", *launch.kernel_for(*r.args, upload=params_record))
         else:
-            compile_one(f"{r.kind} {k}", launch.kernel, _kernel_args(r, dtype, case["dim"]))
+            P = r.args[1]
+            compile_one(f"{r.kind} {k}", launch.kernel_of(type(P)), _kernel_args(r, dtype, case["dim"]))
     return done
 
 
