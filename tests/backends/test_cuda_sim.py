@@ -183,32 +183,34 @@ def test_a_sort_after_the_check_uses_its_cell_counts():
 COUNTS = os.path.join(os.path.dirname(__file__), "..", "..", "benchmarks", "cuda_counts.py")
 
 
-@pytest.mark.parametrize("name,dp,launches,scalars", [("dam_break_2d_bi", 0.05, 8, 1450), ("dam_break_2d", 0.1, 7, 1130)])
-def test_a_cuda_step_reads_the_device_once(name, dp, launches, scalars):
-    """Counted in the simulator (``benchmarks/cuda_counts.py``) over steps after the warm-up,
-    with the adaptive time step: one device-to-host copy per step (the check, which the next
-    step's size needs; the sort learns from it that nobody left), no allocation, and one
-    upload: the step's parameters ``P`` (its new dt), asynchronous from pinned memory into a
-    device record that every launch reads instead of ~40 numbers by value (none at a
-    constant step: ``test_a_constant_step_reads_the_device_every_few_steps``).
-    Launches are held at today's count: the sort three (the scan, the scatter, and one launch
-    that puts each particle at its place in its cell's stable order, moves every field there
-    and, with a continuity density, makes p and V of the step's first evaluation; the cell
-    ids, their histogram and the chunk sums the scan starts from are counted by the check of
-    the step before), the model's passes and the integrator's maps, the last of which runs
-    the wall corrections and the check in its own launch (``make_tail``): the classic model's
-    three passes and one map, 7 in all; WCSPH-BI's two passes per evaluation, two
-    evaluations (the first's interaction with the predictor and the EOS of the second in its
-    loop, ``fuse_first``) and the corrector (with the elastic bounce and the check), 8. The
-    scalars numba-cuda's dispatcher converts for their arguments are held too (a WCSPH-BI
-    step: 1,648 with P by value, 1,444 with P as one record; the classic 1,258 and 1,122)."""
-    r = subprocess.run([sys.executable, COUNTS, name, "--dp", str(dp), "--steps", "2", "--threads", "32", "--json"],
-                       capture_output=True, text=True, timeout=600)
+@pytest.mark.parametrize("name,dp,launches,scalars", [("dam_break_2d_bi", 0.05, 9, 1470), ("dam_break_2d", 0.1, 8, 1150)])
+def test_a_cuda_step_reads_the_device_once_per_check_interval(name, dp, launches, scalars):
+    """Counted in the simulator (``benchmarks/cuda_counts.py``) over four steps after the
+    warm-up, with the adaptive time step and ``time.check_interval = 4``: one device-to-host
+    copy in the four (the ring of the checks; each step's size is made on the device from the
+    check before it, ``solver.timestep``), no allocation, and no upload: the step's
+    parameters ``P`` are one device record that every launch reads instead of ~40 numbers by
+    value, the same each step (its dt and the fields made from it written there by the
+    device).
+    Launches are held at today's count: the step's size (one thread), the sort three (the
+    scan, the scatter, and one launch that puts each particle at its place in its cell's
+    stable order, moves every field there and, with a continuity density, makes p and V of
+    the step's first evaluation; the cell ids, their histogram and the chunk sums the scan
+    starts from are counted by the check of the step before), the model's passes and the
+    integrator's maps, the last of which runs the wall corrections and the check in its own
+    launch (``make_tail``): the classic model's three passes and one map, 8 in all;
+    WCSPH-BI's two passes per evaluation, two evaluations (the first's interaction with the
+    predictor and the EOS of the second in its loop, ``fuse_first``) and the corrector (with
+    the elastic bounce and the check), 9. The scalars numba-cuda's dispatcher converts for
+    their arguments are held too (a WCSPH-BI step: 1,648 with P by value, 1,444 with P as one
+    record, 1,469 with the sizing's launch; the classic 1,258, 1,122 and 1,147)."""
+    r = subprocess.run([sys.executable, COUNTS, name, "--dp", str(dp), "--steps", "4", "--threads", "32", "--json",
+                        "--set", "time.check_interval=4"], capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
     c = json.loads(r.stdout.strip().splitlines()[-1])
     assert c["fluid"] > 50
-    assert c.get("device->host copy", 0) == 1, c
-    assert c.get("allocation", 0) == 0 and c.get("host->device copy", 0) == 1, c
+    assert c.get("device->host copy", 0) == 0.25, c
+    assert c.get("allocation", 0) == 0 and c.get("host->device copy", 0) == 0, c
     assert c["launches"] == launches, c
     assert c["kernel arguments"] <= scalars, c
 
@@ -270,8 +272,8 @@ def test_the_gpu_benchmark_runs_and_counts_in_the_simulator():
     scaled down to 200 particles in the simulator: it sets the case up at its particle count,
     and its launch and synchronisation counts are those of ``cuda_counts.py``: 8 launches per
     step of the 2D WCSPH-BI dam break, and at a constant step (``--constant-dt``, as TNL-SPH
-    runs) one device-to-host copy per ten steps (at the adaptive step, one per step:
-    ``test_a_cuda_step_reads_the_device_once``)."""
+    runs) one device-to-host copy per ten steps (as at the adaptive step, sized on the device
+    with one launch more: ``test_a_cuda_step_reads_the_device_once_per_check_interval``)."""
     env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
     r = subprocess.run([sys.executable, GPU_BENCH, "--cases", "2d-100k", "--scale", "0.002", "--warmup", "2",
                         "--count", "10", "--steps", "1", "--windows", "1", "--threads", "32", "--json",
@@ -283,18 +285,22 @@ def test_the_gpu_benchmark_runs_and_counts_in_the_simulator():
     assert res["ms_per_step"] > 0 and res["M_per_s"] > 0, res
 
 
-DEFERRED = FAST_SIMULATOR + r"""
-import json, numpy as np, wcsph
+#: the simulator's copies to the host counted in ``copies[0]``
+COUNT_COPIES = r"""
 from numba.cuda.simulator.cudadrv import devicearray
-from wcsph.case.config import validate
-from wcsph.errors import SimulationError
-
 copies = [0]
 original = devicearray.FakeCUDAArray.copy_to_host
 def counted(*a, **k):
     copies[0] += 1
     return original(*a, **k)
 devicearray.FakeCUDAArray.copy_to_host = counted
+"""
+
+DEFERRED = FAST_SIMULATOR + COUNT_COPIES + r"""
+import json, numpy as np, wcsph
+from wcsph.case.config import validate
+from wcsph.errors import SimulationError
+
 
 def case(every, c0=100.0):
     return validate({"name": "leaving", "dim": 2, "dp": 0.1, "precision": "float64",
@@ -329,6 +335,61 @@ print(json.dumps({"n": [c[2], g1[2], g4[2]], "dropped": [c[3], g1[3], g4[3]], "t
                   "same": bool(np.array_equal(g1[0], g4[0]) and np.array_equal(g1[1], g4[1])),
                   "dx": float(np.abs(c[0] - g4[0]).max()) if c[2] == g4[2] else None, "messages": msgs}))
 """
+
+
+SIZED = FAST_SIMULATOR + COUNT_COPIES + r"""
+import json, sys, tempfile, numpy as np, wcsph
+from pathlib import Path
+from wcsph.case.config import validate
+
+
+def case(every):  # the classic model's XSPH: P fields made from each step's size
+    return validate({"name": "column", "dim": 2, "dp": 0.05, "precision": "float64",
+                     "fluid": [{"min": [0.0, 0.0], "max": [0.4, 0.4]}],
+                     "tank": {"min": [0.0, 0.0], "max": [1.0, 0.8], "open_top": True},
+                     "model": {"name": "classic", "xsph_epsilon": 0.5},
+                     "time": {"end": 0.035, "check_interval": every},
+                     "output": {"progress": False, "vtk": False, "interval": 0.01, "probe_interval": 0.005}})
+
+res = {}
+for be, every in (("cpu", 1), ("cuda", 1), ("cuda", 4)):
+    sim = wcsph.Simulation(case(every), backend=be)
+    sized = sim.time_step_rule.check is not None
+    sim.step(sim.time_step())  # warm-up: the first step uploads and allocates
+    copies[0] = 0
+    for _ in range(8):
+        sim.step(sim.time_step())
+    stepping = copies[0]
+    with tempfile.TemporaryDirectory() as out:
+        summary = sim.run(output=out)
+        rows = (Path(out) / "probes.csv").read_text()
+    x, ids = sim.host(sim.fluid, "x", "id")
+    res[f"{be}{every}"] = dict(x=x[:, np.argsort(ids)], t=sim.t, steps=sim.steps, copies=stepping, sized=sized,
+                               rows=rows, every=summary["checks_read_every"])
+c, g1, g4 = res["cpu1"], res["cuda1"], res["cuda4"]
+print(json.dumps({"t": [c["t"], g1["t"], g4["t"]], "steps": [c["steps"], g1["steps"], g4["steps"]],
+                  "copies": [g1["copies"], g4["copies"]], "sized": [g1["sized"], g4["sized"]],
+                  "every": [g1["every"], g4["every"]], "rows": g4["rows"].count("\n"),
+                  "same_rows": g1["rows"] == g4["rows"], "same": bool(np.array_equal(g1["x"], g4["x"])),
+                  "dx": float(np.abs(c["x"] - g4["x"]).max())}))
+"""
+
+
+def test_an_adaptive_step_is_sized_on_the_device():
+    """With an adaptive step the device makes each step's size from the last check (and XSPH's
+    epsilon/dt with it), so the host reads every ``check_interval`` steps there too: over
+    eight steps two copies to the host instead of eight (one per step and a count). The run
+    with probes every 0.005 s reads before each could fall due: its probes.csv (time, step,
+    dt, energies) is that of the run that reads each step, character for character, and so
+    are the positions and the end time; the CPU's to round-off."""
+    r = subprocess.run([sys.executable, "-c", SIZED], capture_output=True, text=True, env=_env(), timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    res = json.loads(r.stdout.strip().splitlines()[-1])
+    assert res["sized"] == [False, True] and res["every"] == [1, 4], res
+    assert res["copies"][0] >= 8 and res["copies"][1] == 2, res
+    assert res["rows"] >= 5 and res["same_rows"] and res["same"], res  # a header, a row each 0.005 s
+    assert res["steps"][0] == res["steps"][1] == res["steps"][2] and res["t"][1] == res["t"][2], res
+    assert abs(res["t"][0] - res["t"][2]) < 1e-15 and res["dx"] < 1e-12, res
 
 
 def test_a_constant_step_reads_the_device_every_few_steps():

@@ -18,7 +18,7 @@ class _Integrator:
 
 
 def _state(**kw):
-    s = dict(t=1.5, steps=7, h=0.02, c0=20.0, vmax=2.0, amax=9.81, n_owned=100, bad=0)
+    s = dict(t=1.5, steps=7, h=0.02, c0=20.0, vmax=2.0, amax=9.81, n_owned=100, bad=0, dt=1e-3, lead=0.0)
     s.update(kw)
     return SimpleNamespace(**s)
 
@@ -75,16 +75,17 @@ def test_the_stages_of_a_case_follow_from_it():
     fixed = SimpleNamespace(floating={}, prescribed=False)
     floating = SimpleNamespace(floating={1: object()}, prescribed=False)
     moving = SimpleNamespace(floating={}, prescribed=True)
-    names = [type(s).__name__ for s in stages(integrator, fixed, None)]
+    rule = TimeStep(TIME, 0.2, _Integrator(), nu=0.0)
+    names = [type(s).__name__ for s in stages(rule, integrator, fixed, None)]
     assert "InflowBefore" not in names and "WallsAtStepEnd" not in names and names[-2:] == ["Advance", "Check"]
-    names = [type(s).__name__ for s in stages(integrator, floating, None)]
+    names = [type(s).__name__ for s in stages(rule, integrator, floating, None)]
     assert names[-4:] == ["Advance", "MoveBodies", "MoveWalls", "Check"]
-    names = [type(s).__name__ for s in stages(integrator, moving, None)]
+    names = [type(s).__name__ for s in stages(rule, integrator, moving, None)]
     assert names[names.index("Integrate") + 1:names.index("Integrate") + 3] == ["WallsAtStepEnd", "AfterStep"]
     assert "MoveWalls" not in names
-    opened = [type(s).__name__ for s in stages(integrator, fixed, object())]
+    opened = [type(s).__name__ for s in stages(rule, integrator, fixed, object())]
     assert opened.index("InflowBefore") < opened.index("Integrate") < opened.index("InflowAfter")
-    assert stages(integrator, fixed, None)[1].refresh and not stages(integrator, fixed, object())[1].refresh
+    assert stages(rule, integrator, fixed, None)[1].refresh and not stages(rule, integrator, fixed, object())[1].refresh
 
 
 def _run_bi(extra, fused=True, steps=6):
@@ -146,10 +147,11 @@ class _Ring:
         return 2
 
 
-def _deferred(rows, every):
+def _deferred(rows, every, dt_min=0.0):
     be = _Ring(rows)
-    s = _state(backend=be, fluid=SimpleNamespace(n=100), grid=None, dropped=0, c0=20.0, steps=0, t=0.0)
-    check = Check()
+    s = _state(backend=be, fluid=SimpleNamespace(n=100), grid=None, dropped=0, c0=20.0, steps=0, t=0.0,
+               params_for=lambda dt: SimpleNamespace(dt=dt))
+    check = Check(dt_min)
     check.defer(every)
     return s, be, check
 
@@ -157,7 +159,7 @@ def _deferred(rows, every):
 def test_checks_read_every_few_steps_name_the_first_bad_step():
     """Rows measured on a device are read every ``every`` steps and verified in step order: a
     runaway at the second step stops the run at the read after the third, naming the second."""
-    ok, fast = (1.0, 1.0, 0, 0), (900.0, 1.0, 0, 0)  # |v|^2 = 900: 30 m/s against c0 = 20
+    ok, fast = (1.0, 1.0, 0, 0, 0.0), (900.0, 1.0, 0, 0, 0.0)  # |v|^2 = 900: 30 m/s against c0 = 20
     s, be, check = _deferred([ok, fast, ok, ok], every=3)
     s.steps, s.t = 1, 0.1
     check(s)
@@ -173,7 +175,7 @@ def test_checks_read_every_few_steps_name_the_first_bad_step():
 def test_a_read_that_finds_particles_outside_drops_them():
     """Rows that counted particles outside the grid: the read drops them with a sort, and
     the state's count of particles is the row's; nothing pending after a read."""
-    s, be, check = _deferred([(1.0, 1.0, 0, 0), (1.0, 1.0, 0, 2)], every=4)
+    s, be, check = _deferred([(1.0, 1.0, 0, 0, 0.0), (1.0, 1.0, 0, 2, 0.0)], every=4)
     for k in (1, 2):
         s.steps, s.t = k, 0.1 * k
         check(s)
@@ -181,3 +183,31 @@ def test_a_read_that_finds_particles_outside_drops_them():
     assert be.reads == 1 and be.sorts == 1 and s.dropped == 2 and s.n_owned == 98 and not check.pending
     check.read(s)  # nothing left to read: no copy
     assert be.reads == 1
+
+
+def test_steps_sized_on_the_device_move_the_time_on_at_the_read():
+    """Rows of steps the device sized carry the size: the read sums the time from them (after
+    the host-sized step that opened the batch), names a bad step at its own time, and stops
+    on a size below ``dtMin`` made at the step's start."""
+    rows = [(1.0, 1.0, 0, 0, 0.0), (1.0, 1.0, 0, 0, 2e-3), (900.0, 1.0, 0, 0, 3e-3)]
+    s, be, check = _deferred(rows, every=4)
+    s.steps, s.t, s.dt = 1, 1e-3, 1e-3  # sized on the host: its time already summed
+    check(s)
+    s.dt, s.lead = None, 0.0
+    for k in (2, 3):  # sized on the device: t stays, the lead bounds what they add
+        s.steps, s.lead = k, s.lead + 5e-3
+        check(s)
+    with pytest.raises(SimulationError, match="runaway") as e:
+        check.read(s)
+    assert "step 3" in str(e.value) and "t = 0.006 s" in str(e.value)
+    assert s.t == 1e-3 + 2e-3 + 3e-3 and s.lead == 0.0 and not check.pending
+    assert s.dt == 3e-3 and s.P.dt == 3e-3  # the last step's, as the host would have it
+
+    s, be, check = _deferred([(1.0, 1.0, 0, 0, 0.0), (1.0, 1.0, 0, 0, 1e-7)], every=4, dt_min=1e-6)
+    s.steps, s.t, s.dt = 1, 1e-3, 1e-3
+    check(s)
+    s.steps, s.dt = 2, None
+    check(s)
+    with pytest.raises(SimulationError, match="dtMin") as e:
+        check.read(s)
+    assert "t = 0.001 s" in str(e.value)

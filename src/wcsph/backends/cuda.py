@@ -181,6 +181,28 @@ def _params(P):
     return ring(P)
 
 
+_SIZERS = {}
+
+
+def _sizer(stable, stepped, value):
+    """The kernel ``size_step`` launches: the rule ``stable`` and, for each (field, c, power) of
+    ``stepped``, P's field = ``value(c, power, dt)``."""
+    key = (stable, stepped, value)
+    k = _SIZERS.get(key)
+    if k is None:
+        ns = {"cuda": cuda, "math": math, "rule": cuda.jit(device=True)(stable), "value": cuda.jit(device=True)(value)}
+        lines = [f"        Pd[0].{f} = value({c!r}, {power}, dt)" for f, c, power in stepped]
+        exec("def size(Pd, ring, last, row, cfl, h, c0, force_cfl, nu):\n"
+             "    if cuda.grid(1) == 0:\n"
+             "        v2, a2 = ring[last, 0, 0], ring[last, 1, 0]\n"  # a max over no particle: -inf
+             "        dt = rule(math.sqrt(v2) if v2 > 0 else 0.0, math.sqrt(a2) if a2 > 0 else 0.0, cfl, h, c0, "
+             "force_cfl, nu)\n"
+             "        Pd[0].dt = dt\n" + "".join(line + "\n" for line in lines) +
+             "        ring[row, 4, 0] = dt\n", ns)
+        k = _SIZERS[key] = cuda.jit(ns["size"])
+    return k
+
+
 @cuda.jit(device=True)
 def _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k):
     """The cell of particle i, or ``ncells`` outside the grid's inner cells (the CPU
@@ -786,14 +808,18 @@ def _reduce_blocks(out, is_max, mask, masked, partial, final, counter):
 def _check_one(x, v, a, i, acc, origin, inv_cell, nx, ny, nz, ncells, k, count_cells, cell, count, sums, chunk):
     """``acc`` = (largest |v|^2, largest |a|^2, particles with anything non-finite, particles
     outside the grid) with particle i checked in; with ``count_cells`` also its cell id
-    written and counted for the next sort (``_cell_ids_counted``)."""
+    written and counted for the next sort (``_cell_ids_counted``). A particle parked beyond
+    the grid (left at an earlier step, waiting for the host to drop it) counts as outside
+    only: the CPU has dropped it, so that the speeds (and a step sized from them) are the
+    CPU's."""
     vmax2, amax2, bad, outside = acc
-    s, q, ok = particle_check(x, v, a, i)
-    if ok:
-        vmax2 = max(vmax2, s)
-        amax2 = max(amax2, q)
-    else:
-        bad += 1.0
+    if not x[0, i] >= 0.5 * PARKED:  # (PARKED as stored in float32 is not PARKED; NaN is not parked)
+        s, q, ok = particle_check(x, v, a, i)
+        if ok:
+            vmax2 = max(vmax2, s)
+            amax2 = max(amax2, q)
+        else:
+            bad += 1.0
     c = _cell_of(x, i, origin, inv_cell, nx, ny, nz, ncells, k)
     if c == ncells:
         outside += 1.0
@@ -1142,20 +1168,32 @@ class CudaBackend:
         last, past the cells' runs, where the passes skip it and park it beyond the grid
         (``_pass_body``) until ``read_checks`` tells the host and a sort drops it."""
         ring = pset.__dict__.get("_ring")
-        if ring is None or ring.shape[0] != rows:
-            ring = pset.__dict__["_ring"] = cuda.device_array((rows, 4, 1), dtype=np.float64)
+        if ring is None or ring.shape[0] != rows:  # a fifth column: the step's size (``size_step``)
+            ring = pset.__dict__["_ring"] = cuda.device_array((rows, 5, 1), dtype=np.float64)
         grid = pset.__dict__.get("_grid")
         pset.__dict__["_stays"] = None
-        ring[row].copy_to_device(self._final(pset, None, grid))  # on the device
+        ring[row, :4].copy_to_device(self._final(pset, None, grid))  # on the device
         if grid is not None:
             pset.__dict__["_stays"] = (pset["x"], pset.n, grid)
 
     def read_checks(self, pset, rows):
         """The first ``rows`` rows of the ring ``check_later`` fills, in one copy to the host:
-        (max |v|^2, max |a|^2, non-finite count, count outside the grid) each. When any found
-        a particle outside, the next sort reads its count back (and drops them)."""
-        out = [(vmax2, amax2, int(bad), int(outside)) for vmax2, amax2, bad, outside in
-               (_row_values(row, CHECK_OPS) for row in pset.__dict__["_ring"][:rows].copy_to_host()[:, :, 0])]
+        (max |v|^2, max |a|^2, non-finite count, count outside the grid, the step's size where
+        the device made it) each. When any found a particle outside, the next sort reads its
+        count back (and drops them)."""
+        out = [(vmax2, amax2, int(bad), int(outside), float(row[4])) for row in
+               pset.__dict__["_ring"][:rows].copy_to_host()[:, :, 0]
+               for vmax2, amax2, bad, outside in (_row_values(row[:4], CHECK_OPS),)]
         if any(o[3] for o in out):
             pset.__dict__["_stays"] = None
         return out
+
+    def size_step(self, pset, last, row, P, constants, stable, stepped, value):
+        """The step's size made on the device from row ``last`` of the check's ring
+        (``check_later``): dt = ``stable(vmax, amax, *constants)`` (``solver.timestep``),
+        written into the device record the step's launches read ``P`` from (in P's precision),
+        with each field (f, c, power) of ``stepped`` as ``value(c, power, dt)``, and into the
+        fifth column of row ``row`` (in float64: the time the host sums). One thread: no copy,
+        no wait."""
+        _sizer(stable, tuple(stepped), value)[1, 1](_params(P), pset.__dict__["_ring"], last, row,
+                                                    *(float(c) for c in constants))

@@ -322,6 +322,10 @@ class WCSPH:
         q.kernel, q.c0, q.rho0, q.h, q.kernel_numpy = kernel, c0, rho0, h, kernel_numpy
         return slots.make_params(self.dtype, q, self.sel, gravity, dt)
 
+    def stepped_values(self):
+        """(P field, c, power) of each field of P made from the step's size (``slots.step_value``)."""
+        return slots.stepped_values(self.q, self._stepped)
+
     def update(self, P, dt, gravity, vmax=0.0):
         return slots.update_params(P, self.dtype, self.q, self._stepped, dt, gravity, vmax)
 

@@ -340,6 +340,9 @@ class Integrator:
     #: the step starts with a derivative evaluation (no map before it): the p and V of the
     #: step's start may then be made by the sort (``solver.sort``)
     opens_with_evaluation = False
+    #: the scheme takes the step the stability conditions offer as it is and reads nothing of
+    #: the device within it, so a device may make the step's size (``solver.timestep``)
+    takes_stable_step = True
 
     def __init__(self, backend, dim, continuity, dtype, settings=None):
         self.backend, self.dim, self.continuity, self.dtype = backend, dim, continuity, dtype
@@ -551,6 +554,10 @@ class RungeKutta(Integrator):
         w[S + 1:] = scales
         return self.backend.to_device(w)
 
+    @property
+    def takes_stable_step(self):
+        return not self.adaptive  # its error control sizes the step
+
     def propose(self, dt):
         if self.adaptive and self.dt_next is not None:
             return min(dt, self.dt_next)
@@ -658,6 +665,7 @@ class ImplicitMidpoint(Integrator):
     dissipation-free model the energy error stays bounded rather than drifting."""
     name, spec_name, ref = 'midpoint', 'MidpointScheme', 'Cercos-Pita et al. (2024), the WCSPH-BI spec'
     iterated = True
+    takes_stable_step = False  # its iterations read their residual, and log each step's size
     refreshing = (2,)  # the midpoint state, before each iteration's evaluation
 
     ROUNDOFF_FLOOR = 1000.0

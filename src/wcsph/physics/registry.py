@@ -84,7 +84,9 @@ class Choice:
     doc: str = ""
     params: tuple = ()
     values: Callable = None  # q -> {P field: value}
-    step_values: Callable = None  # (q, dt) -> {P field: value}, for fields that depend on dt
+    #: q -> {P field: (c, power)} for fields that depend on dt: c dt (power 1) or c / dt (-1)
+    #: (``slots.step_value``; a device that sizes the step makes them too)
+    step_values: Callable = None
     p_fields: tuple = ()  # the P fields ``values`` and ``step_values`` fill
     build: Callable = None
     walls: tuple = ("particles", "elements")

@@ -177,12 +177,12 @@ add("shifting", Choice("None", "-", "no shifting"))
 add("shifting", Choice(
     "Lind", "Lind, Xu, Stansby & Rogers (2012)", "dr_i = -A h |v_i| dt sum_j (1 + R (W/W(dp))^4) grad W_ij V_j",
     params=(Param("shifting_A", 2.0, "A of D = A h |v| dt", check=POS), SURFACE, MAX, NEAR_WALLS), p_fields=FIELDS,
-    values=_values, step_values=lambda q, dt: {"shift_d": q.m["shifting_A"] * q.h * dt}, build=_build(True),
+    values=_values, step_values=lambda q: {"shift_d": (q.m["shifting_A"] * q.h, 1)}, build=_build(True),
     implies=frozenset({"wall_volume"})))
 add("shifting", Choice(
     "DeltaPlus", "Sun, Colagrossi, Marrone & Zhang (2017), delta+-SPH",
     "dr_i = -CFL Ma (2h)^2 sum_j (1 + R (W/W(dp))^4) grad W_ij V_j",
     params=(SURFACE, MAX, NEAR_WALLS), p_fields=FIELDS, values=_values,
-    step_values=lambda q, dt: {"shift_d": 4.0 * q.h * dt}, build=_build(False),
+    step_values=lambda q: {"shift_d": (4.0 * q.h, 1)}, build=_build(False),
     implies=frozenset({"wall_volume", "speed"})))
 

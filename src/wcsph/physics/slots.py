@@ -184,8 +184,19 @@ def make_params(dtype, q, sel, gravity, dt=1.0):
         if c.values is not None:
             v.update(c.values(q))
         if c.step_values is not None:
-            v.update(c.step_values(q, dt))
+            v.update({f: step_value(k, power, dt) for f, (k, power) in c.step_values(q).items()})
     return Params(**{f: dtype(x) for f, x in v.items()})
+
+
+def step_value(c, power, dt):
+    """A P field that depends on the step's size: c dt (``power`` 1) or c / dt (-1). Jitable:
+    the host's and a device's (``stepped_values``) are this one function."""
+    return c / dt if power < 0 else c * dt
+
+
+def stepped_values(q, stepped):
+    """(P field, c, power) of every field the choices ``stepped`` make from dt."""
+    return tuple((f, float(k), int(power)) for c in stepped for f, (k, power) in c.step_values(q).items())
 
 
 def update_params(P, dtype, q, stepped, dt, gravity, vmax):
@@ -194,8 +205,8 @@ def update_params(P, dtype, q, stepped, dt, gravity, vmax):
     v = {"dt": dtype(dt), "gx": dtype(gravity[0]), "gy": dtype(gravity[1]),
          "gz": dtype(gravity[2] if len(gravity) == 3 else 0.0), "vmax": dtype(vmax)}
     for c in stepped:
-        for f, x in c.step_values(q, dt).items():
-            v[f] = dtype(x)
+        for f, (k, power) in c.step_values(q).items():
+            v[f] = dtype(step_value(k, power, dt))
     return P._replace(**v)
 
 

@@ -60,7 +60,7 @@ add("xsph", Choice(
     params=(EPSILON, Param("wall_xsph", 0.0, "epsilon towards the wall velocity over boundary particles",
                            check=UNIT, walls=("particles",))),
     p_fields=("xsph_dt", "wall_xsph_dt"),
-    step_values=lambda q, dt: {"xsph_dt": q.m["xsph_epsilon"] / dt, "wall_xsph_dt": q.m["wall_xsph"] / dt},
+    step_values=lambda q: {"xsph_dt": (q.m["xsph_epsilon"], -1), "wall_xsph_dt": (q.m["wall_xsph"], -1)},
     build=_momentum))
 add("xsph", Choice(
     "position", "third spec, XSPH correction (Monaghan 1989)", "dx_i/dt = v_i - epsilon sum_j m_j v_ij/rho_ij W_ij",

@@ -7,21 +7,26 @@
 can measure each step into a ring of rows on the device and leave the host to read the ring
 every ``every`` steps (``defer``): one copy to the host per ``every`` steps instead of one a
 step, and no wait for the device between them. The rows are verified in step order, so an
-error still names the first bad step and its time. Only where nothing needs the figures
-between reads: a constant time step (an adaptive one is made from them), one process, no
-open boundary or floating body, no choice that reads the step's largest speed (``speed``).
+error still names the first bad step and its time. Only where nothing on the host needs the figures
+between reads: a constant time step, or an adaptive one that the device makes from them
+(``solver.timestep``: each row then holds the step's size too, and the read sums the time),
+one process, no open boundary or floating body, no choice that reads the step's largest
+speed (``speed``).
 The time loop reads the ring before it looks at the state (an output, a checkpoint, the
 end, a signal: ``read``). A particle that leaves the grid between reads stays in the arrays,
 parked beyond the grid where no neighbour walk meets it, and is dropped at the read."""
 import math
 
 from ..errors import SimulationError
+from .timestep import too_small
 
 
 class Check:
-    def __init__(self):
+    def __init__(self, dt_min=0.0):
         self.every = 1
-        self.pending = []  # (steps, t, particles) of each row measured and not read yet
+        self.dt_min = dt_min  # ``time.dtMin``: a step the device made shorter stops the run at the read
+        self.pending = []  # (steps, t, particles, sized on the device) of each row measured and not read yet
+        self.last = None  # the ring's row of the last step's check (read or not): a device sizes the next from it
 
     def defer(self, every):
         """Read the device's figures every ``every`` steps from now on (1: every step)."""
@@ -29,27 +34,42 @@ class Check:
 
     def __call__(self, state):
         if self.every > 1 and state.fluid.n:
-            state.backend.check_later(state.fluid, len(self.pending), self.every)
-            self.pending.append((state.steps, state.t, state.fluid.n))
+            self.last = len(self.pending)
+            state.backend.check_later(state.fluid, self.last, self.every)
+            self.pending.append((state.steps, state.t, state.fluid.n, state.dt is None))
             if len(self.pending) == self.every:
                 self.read(state)
             return
         self.read(state)
+        self.last = None
         self.measure(state)
         self.verify(state)
 
     def read(self, state):
         """The rows measured since the last read, verified in step order; the particles they
-        found outside the grid dropped."""
+        found outside the grid dropped. Steps the device sized move the time on by the sizes
+        read (the host's sum of the same numbers); one shorter than ``time.dtMin`` stops the
+        run as the host's rule would."""
         if not self.pending:
             return
         pending, self.pending = self.pending, []
+        rows = state.backend.read_checks(state.fluid, len(pending))
+        times, t = [], state.t
+        for (_, t_host, _, on_device), row in zip(pending, rows):
+            t = t + row[4] if on_device else t_host
+            times.append(t)
+        start, state.t, state.lead = state.t, times[-1], 0.0
+        if pending[-1][3]:  # the last step's size and parameters, as the host would have them
+            state.dt = rows[-1][4]
+            state.P = state.params_for(state.dt)
         left = False
-        for (steps, t, n), (vmax2, amax2, bad, outside) in zip(pending, state.backend.read_checks(state.fluid,
-                                                                                               len(pending))):
+        for (steps, _, n, on_device), (vmax2, amax2, bad, outside, dt), t in zip(pending, rows, times):
+            if on_device:  # made from the row before (the state's speeds here) at the step's start
+                too_small(dt, self.dt_min, start, state.vmax, state.amax)
             state.vmax, state.amax, state.bad, state.n_owned = math.sqrt(vmax2), math.sqrt(amax2), bad, n - outside
             self.verify(state, steps, t)
             left = left or outside > 0
+            start = t
         if left:  # a sort that reads the count drops them (the next sort would find the same order)
             state.dropped += state.backend.sort(state.fluid, state.grid)
 

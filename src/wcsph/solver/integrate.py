@@ -1,17 +1,15 @@
-"""Stage: the integrator's step, with the model's parameters for the step's size."""
+"""Stage: the integrator's step, with the model's parameters for the step's size
+(``TimeStep.parameters``)."""
 from ..errors import IntegrationError, SimulationError
 
 
 class Integrate:
-    """``state.P`` for ``state.dt``, then the scheme's evaluations and maps. An adaptive
+    """The scheme's evaluations and maps with ``state.P``. An adaptive
     scheme may take a smaller step than offered: ``state.dt`` is then the one taken, and P
     is made again for it (the later stages read both)."""
 
     def __init__(self, integrator):
         self.integrator = integrator
-
-    def parameters(self, state):
-        state.P = state.params_for(state.dt)
 
     def __call__(self, state):
         try:

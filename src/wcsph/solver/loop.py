@@ -47,6 +47,7 @@ def run(sim, output, end_time, progress):
 
 def _run(sim, output, end_time, progress):
     state, case = sim.state, sim.case
+    sim.read_checks()  # steps taken before (and sized on a device) move the time on first
     end = end_time if end_time is not None else case["time"]["end"]
     oc = case["output"]
     writer = None
@@ -77,11 +78,15 @@ def _run(sim, output, end_time, progress):
     try:
         with Progress(end, enabled=show) as bar, stop:
             while True:
-                ending = state.t >= end - slack or bool(max_steps and state.steps >= max_steps)
                 callbacks = (frames, rows, *grids, checkpoints) if writer is not None else ()
-                due = [c for c in callbacks if c.due(state.t, slack)]
-                if due or ending or stop.signal is not None:
+                # steps the device sized and the host has not read may have brought the time
+                # up to state.t + state.lead: read them before anything might fall due
+                ahead = state.t + state.lead
+                if (stop.signal is not None or ahead >= end - slack or any(c.due(ahead, slack) for c in callbacks)
+                        or bool(max_steps and state.steps >= max_steps)):
                     sim.read_checks()  # a device's checks of the steps since the last read, first
+                ending = state.t >= end - slack or bool(max_steps and state.steps >= max_steps)
+                due = [c for c in callbacks if c.due(state.t, slack)]
                 for c in due:
                     if c is checkpoints:
                         c()

@@ -2,7 +2,7 @@
 
 A step is the list ``stages``, each a callable of the run state (``solver.state.State``):
 
-1. the step's parameters (``Integrate.parameters``);
+1. the step's parameters (``TimeStep.parameters``; a size made on the device, launched);
 2. ``Sort``: the particles by cell (in a decomposed run: migrated, ghosts exchanged; with a
    continuity density, p and V of the step's start made there);
 3. ``InflowBefore``: the open boundaries' buffers kept (cases with open boundaries);
@@ -41,9 +41,10 @@ from .timestep import TimeStep
 from .walls import MoveWalls, WallsAtStepEnd
 
 
-def stages(integrator, bodies, open_boundaries, damping=None):
+def stages(rule, integrator, bodies, open_boundaries, damping=None):
     """The ordered stages of a step (the module docstring lists them); the inflow stages only
-    for a case with open boundaries, the damping only with damping zones."""
+    for a case with open boundaries, the damping only with damping zones. ``rule``: the
+    ``TimeStep``."""
     integrate = Integrate(integrator)
     inflow = [InflowBefore(open_boundaries)] if open_boundaries is not None else []
     outflow = [InflowAfter(open_boundaries)] if open_boundaries is not None else []
@@ -51,8 +52,8 @@ def stages(integrator, bodies, open_boundaries, damping=None):
     damped = [damping] if damping is not None else []
     walls = [WallsAtStepEnd()] if bodies.prescribed else []
     refresh = open_boundaries is None and integrator.opens_with_evaluation and integrator.continuity
-    return [integrate.parameters, Sort(refresh), *inflow, integrate, *walls, AfterStep(), *outflow, *damped,
-            Advance(), *floating, Check()]
+    return [rule.parameters, Sort(refresh), *inflow, integrate, *walls, AfterStep(), *outflow, *damped,
+            Advance(), *floating, Check(rule.tc["dtMin"])]
 
 
 def fuse_tail(state, integrator, bodies, open_boundaries, damping=None):
@@ -76,15 +77,25 @@ def fuse_tail(state, integrator, bodies, open_boundaries, damping=None):
         integrator.fuse_tail(walk, model.wall_corrections[0] if walk is not None else None)
 
 
-def read_every_few_steps(state, bodies, open_boundaries):
+def read_every_few_steps(state, integrator, bodies, open_boundaries, damping=None):
     """Whether the host may read the check's figures every ``time.check_interval`` steps
-    (``solver.check``): a backend that keeps them on its device, a constant time step, one
-    process, no open boundary or floating body, and no choice that reads the step's largest
-    speed."""
+    (``solver.check``): a backend that keeps them on its device, one process, no open boundary
+    or floating body, no choice that reads the step's largest speed, and a constant time step
+    or one the device can size (``size_on_device``)."""
     case = state.case
     return (state.backend.defers_check and case["time"]["check_interval"] > 1
-            and case["time"]["dt"] > 0 and state.par is None and open_boundaries is None and not bodies.floating
-            and "speed" not in state.model.implies)
+            and state.par is None and open_boundaries is None and not bodies.floating
+            and "speed" not in state.model.implies and (case["time"]["dt"] > 0 or size_on_device(state, integrator, bodies, damping)))
+
+
+def size_on_device(state, integrator, bodies, damping=None):
+    """Whether a device may make the adaptive step's size (``solver.timestep``): nothing on the
+    host reads it within the step. So the scheme takes the stability conditions' step as it
+    is (``Integrator.takes_stable_step``), no wall moves on a prescribed path (placed at each
+    evaluation's time) and no damping zone (relaxed over dt). The fields of P that depend on
+    dt the device makes with it (``Model.stepped_values``)."""
+    return (state.case["time"]["dt"] <= 0 and integrator.takes_stable_step and not bodies.prescribed
+            and damping is None)
 
 
 class Simulation:
@@ -109,14 +120,18 @@ class Simulation:
         self.probes = PointProbes(self.state)
         self.time_step_rule = TimeStep(case["time"], self.cfl, self.integrator, self.model.kinematic_viscosity())
         damping = Damping(self.backend, self.dim, case["damping"]) if case["damping"] else None
-        self.stages = stages(self.integrator, self.bodies, self.open, damping)
+        self.stages = stages(self.time_step_rule, self.integrator, self.bodies, self.open, damping)
         fuse_tail(self.state, self.integrator, self.bodies, self.open, damping)
         self.check = next(s for s in self.stages if isinstance(s, Check))
-        if read_every_few_steps(self.state, self.bodies, self.open):
+        if read_every_few_steps(self.state, self.integrator, self.bodies, self.open, damping):
             self.check.defer(case["time"]["check_interval"])
+            if size_on_device(self.state, self.integrator, self.bodies, damping):
+                self.time_step_rule.size_on_device(self.check)
         self.setup_time = time.perf_counter() - t_setup  # compiles (or loads) the loops
 
     def __getattr__(self, name):  # the run state's fields
+        if name in ("t", "dt") and "check" in self.__dict__:
+            self.read_checks()  # steps a device sized and the host has not read move the time on
         return getattr(self.__dict__["state"], name)
 
     def __setattr__(self, name, value):
@@ -152,6 +167,7 @@ class Simulation:
         return body_loads(self.state, self.bodies)
 
     def save_checkpoint(self, path, output_state=None):
+        self.read_checks()
         checkpoint.save(path, self.state, self.integrator, self.open, output_state, self.bodies)
 
     read_checkpoint = staticmethod(checkpoint.read)

@@ -30,7 +30,9 @@ class State:
         self.gravity = np.asarray(case["physics"]["gravity"], dtype=float)
         self.t = 0.0
         self.steps = 0
-        self.dt = 0.0  # the step being taken (the stages of one step read it)
+        self.dt = 0.0  # the step being taken (the stages of one step read it); None: sized on the device
+        self.dt_bound = 0.0  # the longest step the device may make (``solver.timestep``)
+        self.lead = 0.0  # the most the steps sized on the device and not read yet can add to t
         self.walls_at = None  # t -> walls on prescribed paths placed at t (``solver.walls.clock``)
         self.walls_t = 0.0  # the time the moving walls were last placed at
         self.evaluations = 0  # derivative evaluations (integrator stages, midpoint iterations)
@@ -66,9 +68,11 @@ class State:
             return 1.0
         return 0.5 * (math.sin((t / td - 0.5) * math.pi) + 1.0)
 
-    def params_for(self, dt):
-        """The model parameters for a step of size ``dt`` from the current time."""
-        return self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t), self.vmax)
+    def params_for(self, dt, vmax=None):
+        """The model parameters for a step of size ``dt`` from the current time (``vmax``: the
+        largest speed they hold, by default the state's)."""
+        return self.model.update(self.P, dt, self.gravity * self.gravity_factor(self.t),
+                                 self.vmax if vmax is None else vmax)
 
     def swap(self, pairs):
         """Each (a, b) of ``pairs``: the fluid's arrays a and b trade names."""
