@@ -68,4 +68,5 @@ def test_every_kernel_compiles_to_ptx(name, dp, extra):
     kernels = res["kernels"]
     assert any(k.startswith("pass") for k in kernels) and any(k.startswith("map") for k in kernels), kernels
     assert "_check_blocks" in kernels and "_scan_chunks" in kernels
+    assert any(k.startswith("size") for k in kernels) and any(k.startswith("scan+size") for k in kernels), kernels
     assert min(res["chars"]) > 1000  # a kernel's PTX, not an empty module

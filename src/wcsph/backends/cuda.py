@@ -174,6 +174,7 @@ _RINGS = {}
 def _params(P):
     """``P`` on the device: one array argument for a launch instead of its ~40 numbers by value,
     uploaded only when it changed (an adaptive step's dt; never at a constant step)."""
+    _flush_sizing()
     key = (type(P), type(P[0]))
     ring = _RINGS.get(key)
     if ring is None:
@@ -181,26 +182,58 @@ def _params(P):
     return ring(P)
 
 
+_BODIES = {}
 _SIZERS = {}
+#: the sizing ``size_step`` asked for and no launch has made yet: (key, arguments)
+_SIZING = [None]
+
+
+def _size_body(stable, stepped, value):
+    """The step's sizing as a device function of one thread: the rule ``stable`` and, for each
+    (field, c, power) of ``stepped``, P's field = ``value(c, power, dt)``."""
+    key = (stable, stepped, value)
+    f = _BODIES.get(key)
+    if f is None:
+        ns = {"cuda": cuda, "math": math, "rule": cuda.jit(device=True)(stable), "value": cuda.jit(device=True)(value)}
+        lines = [f"    Pd[0].{f} = value({c!r}, {power}, dt)" for f, c, power in stepped]
+        exec("def size(Pd, ring, last, row, cfl, h, c0, force_cfl, nu):\n"
+             "    v2, a2 = ring[last, 0, 0], ring[last, 1, 0]\n"  # a max over no particle: -inf
+             "    dt = rule(math.sqrt(v2) if v2 > 0 else 0.0, math.sqrt(a2) if a2 > 0 else 0.0, cfl, h, c0, "
+             "force_cfl, nu)\n"
+             "    Pd[0].dt = dt\n" + "".join(line + "\n" for line in lines) +
+             "    ring[row, 4, 0] = dt\n", ns)
+        f = _BODIES[key] = cuda.jit(device=True)(ns["size"])
+    return f
 
 
 def _sizer(stable, stepped, value):
-    """The kernel ``size_step`` launches: the rule ``stable`` and, for each (field, c, power) of
-    ``stepped``, P's field = ``value(c, power, dt)``."""
+    """The sizing as a launch of its own (``_size_body``, one thread)."""
     key = (stable, stepped, value)
     k = _SIZERS.get(key)
     if k is None:
-        ns = {"cuda": cuda, "math": math, "rule": cuda.jit(device=True)(stable), "value": cuda.jit(device=True)(value)}
-        lines = [f"        Pd[0].{f} = value({c!r}, {power}, dt)" for f, c, power in stepped]
-        exec("def size(Pd, ring, last, row, cfl, h, c0, force_cfl, nu):\n"
-             "    if cuda.grid(1) == 0:\n"
-             "        v2, a2 = ring[last, 0, 0], ring[last, 1, 0]\n"  # a max over no particle: -inf
-             "        dt = rule(math.sqrt(v2) if v2 > 0 else 0.0, math.sqrt(a2) if a2 > 0 else 0.0, cfl, h, c0, "
-             "force_cfl, nu)\n"
-             "        Pd[0].dt = dt\n" + "".join(line + "\n" for line in lines) +
-             "        ring[row, 4, 0] = dt\n", ns)
-        k = _SIZERS[key] = cuda.jit(ns["size"])
+        body = _size_body(*key)
+
+        @cuda.jit
+        def size(Pd, ring, last, row, cfl, h, c0, force_cfl, nu):
+            if cuda.grid(1) == 0:
+                body(Pd, ring, last, row, cfl, h, c0, force_cfl, nu)
+
+        k = _SIZERS[key] = size
     return k
+
+
+def _take_sizing():
+    """The pending sizing (None if none), no longer pending."""
+    sizing, _SIZING[0] = _SIZING[0], None
+    return sizing
+
+
+def _flush_sizing():
+    """A pending sizing launched on its own: a launch that reads P is about to be made before
+    a sort could make it."""
+    sizing = _take_sizing()
+    if sizing is not None:
+        _sizer(*sizing[0])[1, 1](*sizing[1])
 
 
 @cuda.jit(device=True)
@@ -338,6 +371,32 @@ def _zero(a):
 
 @cuda.jit
 def _scan_chunks(a, chunk, sums, out, fill, ticket):
+    """The scan of the sort (``_scan_body``), one launch."""
+    _scan_body(a, chunk, sums, out, fill, ticket)
+
+
+_SCANS = {}
+
+
+def _scan_sized(key):
+    """The sort's scan launched with the step's sizing (``size_step``) in its first thread:
+    one launch for both. ``key``: the sizing's (rule, stepped fields, value function)."""
+    k = _SCANS.get(key)
+    if k is None:
+        body = _size_body(*key)
+
+        @cuda.jit
+        def scan_sized(a, chunk, sums, out, fill, ticket, Pd, ring, last, row, cfl, h, c0, force_cfl, nu):
+            if cuda.grid(1) == 0:
+                body(Pd, ring, last, row, cfl, h, c0, force_cfl, nu)
+            _scan_body(a, chunk, sums, out, fill, ticket)
+
+        k = _SCANS[key] = scan_sized
+    return k
+
+
+@cuda.jit(device=True)
+def _scan_body(a, chunk, sums, out, fill, ticket):
     """out[k] = fill[k] = the sum of a[:k] (exclusive), thread t of block b scanning chunk
     c = b * THREADS + t (a[c chunk:(c + 1) chunk], whose sum is sums[c]) from the sum of the
     chunks before it: the chunk sums before the block's first (summed by the block's
@@ -449,7 +508,11 @@ def _scan_scatter(cell, ncells, work, counted=False):
         _histogram[_blocks(n), THREADS](cell, count, sums, chunk)
     start = _buffer(work, "start", ncells + 2)
     fill = _buffer(work, "fill", ncells + 2)
-    _scan_chunks[_blocks(sums.size), THREADS](count, chunk, sums, start, fill, ticket)
+    sizing = _take_sizing()
+    if sizing is None:
+        _scan_chunks[_blocks(sums.size), THREADS](count, chunk, sums, start, fill, ticket)
+    else:  # the step's size, made in the same launch (before any launch reads P)
+        _scan_sized(sizing[0])[_blocks(sums.size), THREADS](count, chunk, sums, start, fill, ticket, *sizing[1])
     raw = _buffer(work, "raw", n)
     if n:
         _scatter_cells[_blocks(n), THREADS](cell, fill, raw)
@@ -1194,6 +1257,8 @@ class CudaBackend:
         written into the device record the step's launches read ``P`` from (in P's precision),
         with each field (f, c, power) of ``stepped`` as ``value(c, power, dt)``, and into the
         fifth column of row ``row`` (in float64: the time the host sums). One thread: no copy,
-        no wait."""
-        _sizer(stable, tuple(stepped), value)[1, 1](_params(P), pset.__dict__["_ring"], last, row,
-                                                    *(float(c) for c in constants))
+        no wait. Made by the first thread of the sort's scan, the step's first launch, or in a
+        launch of its own by any launch that reads P before it (``_params``)."""
+        record = _params(P)
+        _SIZING[0] = ((stable, tuple(stepped), value),
+                      (record, pset.__dict__["_ring"], last, row, *(float(c) for c in constants)))

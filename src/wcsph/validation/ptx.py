@@ -108,18 +108,21 @@ def record(case, steps=2):
     # the launch that makes an adaptive step's size on the device (``TimeStep.parameters``)
     stepped = sim.model.stepped_values()
     made.append({"kind": "size", "build": lambda: _Sizer(stepped), "args": (None, sim.P)})
+    made.append({"kind": "scan+size", "build": lambda: _Sizer(stepped, fused=True), "args": (None, sim.P)})
     return [Recorded(e["kind"], e["build"], e["args"]) for e in made if e["args"] is not None]
 
 
 class _Sizer:
-    """The step's sizing on the device (``CudaBackend.size_step``), as a recorded kernel."""
+    """The step's sizing on the device (``CudaBackend.size_step``) as a recorded kernel: its
+    own launch, or with ``fused`` in the sort's scan."""
 
-    def __init__(self, stepped):
+    def __init__(self, stepped, fused=False):
         from ..backends import cuda as cb
         from ..physics.slots import step_value
         from ..solver.timestep import stable_step
 
-        self.kernel = cb._sizer(stable_step, stepped, step_value)
+        key = (stable_step, stepped, step_value)
+        self.kernel = cb._scan_sized(key) if fused else cb._sizer(*key)
 
     def kernel_of(self, T):
         return self.kernel
@@ -144,10 +147,11 @@ def _kernel_args(r, dtype, dim):
 
     if r.kind == "reduce":
         return (r.args[0], params_record(r.args[1]), np.zeros((3, 1)))
-    if r.kind == "size":  # P's record, the check's ring, the rows, (cfl, h, c0, force_cfl, nu)
-        return (params_record(r.args[1]), np.zeros((4, 5, 1)), np.int64(0), np.int64(1), *([0.1] * 5))
     i64 = np.zeros(4, dtype=np.int64)
     n = np.int64(4)
+    if r.kind in ("size", "scan+size"):  # P's record, the check's ring, the rows, (cfl, h, c0, force_cfl, nu)
+        size = (params_record(r.args[1]), np.zeros((4, 5, 1)), n, n, *([0.1] * 5))
+        return (i64, n, i64, i64, i64, i64[:1], *size) if r.kind == "scan+size" else size
     if r.kind == "sort":
         x = np.zeros((dim, 4), dtype=dtype)
         f = np.zeros(4, dtype=dtype)
