@@ -237,8 +237,9 @@ print(json.dumps({"n": [c[1], g[1]], "dropped": [c[2], g[2]], "t": [c[3], g[3]],
 
 def test_particles_leaving_the_domain_on_the_device():
     """A block thrown out of the domain at 30 m/s, adaptive time step (five particles leave at
-    the sixth of eight steps): the device drops the same particles at the same step as the CPU (the sort reads the count back only after a
-    check that saw a particle outside), and the survivors are where the CPU's are."""
+    the sixth of eight steps): the device drops the same particles as the CPU (parked beyond
+    the grid until the host reads the checks, out of the speeds the next steps are sized
+    from), the steps and the time are the CPU's, and the survivors are where the CPU's are."""
     env = _env()
     r = subprocess.run([sys.executable, "-c", LEAVING], capture_output=True, text=True, env=env, timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -248,8 +249,8 @@ def test_particles_leaving_the_domain_on_the_device():
 
 
 def test_cuda_matches_cpu_in_float32_with_the_adaptive_step():
-    """``dam_break_2d_bi`` in float32 with the adaptive time step (the step from the device's
-    check, read each step): the device's positions, velocities, densities and pressures are
+    """``dam_break_2d_bi`` in float32 with the adaptive time step (sized on the device from its
+    check, which the host reads every ten steps): the device's positions, velocities, densities and pressures are
     the CPU's to a few units of float32's last place (measured: 1e-8 m, 1e-5 of the largest
     speed, 2e-7 of the density, 2e-5 of the largest pressure), and the steps are the same."""
     env = _env()
