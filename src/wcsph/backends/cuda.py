@@ -1016,8 +1016,17 @@ def _measure_args(pset, grid, nb):
         cell = work.get("cell")
         if cell is None or cell.shape[0] != pset.n:
             cell = work["cell"] = cuda.device_array(pset.n, dtype=INDEX)
-    return (origin, inv, nx, ny, nz, ncells, k, _flags(CHECK_OPS), _scratch((4, nb)), _scratch((4, 1)), _counter(),
+    return (origin, inv, nx, ny, nz, ncells, k, _flags(CHECK_OPS), _scratch((4, nb)), _ring_row(pset), _counter(),
             cell, count, sums, chunk)
+
+
+def _ring_row(pset):
+    """Where the check of ``pset`` reduces its four figures: the row of the checks' ring the
+    next ``check_later`` fills (no copy into it then), else a scratch array."""
+    row = pset.__dict__.get("_into_row")
+    if row is None:
+        return _scratch((4, 1))
+    return pset.__dict__["_ring"][row, :4]
 
 
 def _unused_vector(dt):
@@ -1233,9 +1242,14 @@ class CudaBackend:
         ring = pset.__dict__.get("_ring")
         if ring is None or ring.shape[0] != rows:  # a fifth column: the step's size (``size_step``)
             ring = pset.__dict__["_ring"] = cuda.device_array((rows, 5, 1), dtype=np.float64)
+            pset.__dict__["_into_row"] = None
         grid = pset.__dict__.get("_grid")
         pset.__dict__["_stays"] = None
-        ring[row, :4].copy_to_device(self._final(pset, None, grid))  # on the device
+        final = self._final(pset, None, grid)
+        if pset.__dict__.get("_into_row") != row:  # not reduced into the ring's row: copied there, on the device
+            ring[row, :4].copy_to_device(final)
+        # the next check reduces into the next row (after a read, the first: ``read_checks``)
+        pset.__dict__["_into_row"] = row + 1 if row + 1 < rows else None
         if grid is not None:
             pset.__dict__["_stays"] = (pset["x"], pset.n, grid)
 
@@ -1249,6 +1263,7 @@ class CudaBackend:
                for vmax2, amax2, bad, outside in (_row_values(row[:4], CHECK_OPS),)]
         if any(o[3] for o in out):
             pset.__dict__["_stays"] = None
+        pset.__dict__["_into_row"] = 0
         return out
 
     def size_step(self, pset, last, row, P, constants, stable, stepped, value):
