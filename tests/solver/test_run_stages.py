@@ -211,3 +211,25 @@ def test_steps_sized_on_the_device_move_the_time_on_at_the_read():
     with pytest.raises(SimulationError, match="dtMin") as e:
         check.read(s)
     assert "t = 0.001 s" in str(e.value)
+
+
+def test_the_device_sizes_the_step_only_where_nothing_on_the_host_reads_it_within():
+    """An adaptive step is sized on the device (``simulation.size_on_device``) unless the
+    scheme sizes its own (the implicit midpoint's iterations, RK45's error control), a wall
+    moves on a prescribed path (placed on the host at each evaluation's time), a damping
+    zone relaxes over dt, or the step is constant (nothing to size)."""
+    import numpy as np
+
+    from wcsph.backends.cpu import CpuBackend
+    from wcsph.physics.integrators import RK4, RK45, ImplicitMidpoint, SymplecticVerlet
+    from wcsph.solver.simulation import size_on_device
+
+    adaptive, constant = SimpleNamespace(case={"time": {"dt": 0.0}}), SimpleNamespace(case={"time": {"dt": 1e-4}})
+    still, moving = SimpleNamespace(prescribed=False), SimpleNamespace(prescribed=True)
+    be = CpuBackend()
+    verlet, midpoint = SymplecticVerlet(be, 2, True, np.float64), ImplicitMidpoint(be, 2, True, np.float64)
+    rk45, rk4 = RK45(be, 2, True, np.float64), RK4(be, 2, True, np.float64)
+    assert size_on_device(adaptive, verlet, still) and size_on_device(adaptive, rk4, still)
+    assert not size_on_device(adaptive, midpoint, still) and not size_on_device(adaptive, rk45, still)
+    assert not size_on_device(adaptive, verlet, moving) and not size_on_device(adaptive, verlet, still, object())
+    assert not size_on_device(constant, verlet, still)
