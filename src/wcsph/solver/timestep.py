@@ -7,9 +7,10 @@ sqrt(h/|a|max), 0.125 h^2/nu), with ``vmax`` and ``amax`` the run state's, from 
 step's check (``stable_step``, one function for the host and the device).
 
 **Sized on the device.** Where the host reads the checks every few steps (``solver.check``)
-and the step is the stability conditions' as they are (``on_device``), a device makes each
+and the step is the stability conditions' as they are (``solver.simulation.size_on_device``,
+set with ``size_on_device`` here), a device makes each
 step's size itself from the last step's check, still on the device, and writes it into the
-step's parameters there: the host then launches step after step without waiting for the
+step's parameters there, with P's fields made from it (``slots.step_value``): the host then launches step after step without waiting for the
 device, and learns the sizes, and the time, at the next read. The host calls for a read
 before the time could reach an output or the end: each step is at most ``bound`` (the CFL
 limit at rest), so it steps on without reading while t + (steps not read) bound stays short
