@@ -456,6 +456,10 @@ class CpuBackend:
         """An index list as ``take`` and ``put`` take it."""
         return np.ascontiguousarray(idx, dtype=np.int64)
 
+    def stage(self, name, a):
+        """A small host array for the loops after it (a GPU's ``stage`` copies it there)."""
+        return np.ascontiguousarray(a)
+
     def check(self, pset, owned=None):
         """(max |v|^2, max |a|^2, non-finite count) over ``pset``, or its particles with
         ``owned[i]``."""

@@ -137,34 +137,39 @@ def _per_params(build):
     return kernel_of
 
 
-class _ParamRing:
-    """Uploads of one record type: each distinct ``P`` copied asynchronously from a pinned
-    buffer into a device record, on the stream the kernels run on (so a record is rewritten
-    only after every launch before it has read it); the host reuses a pinned buffer once its
-    last copy has completed (an event)."""
+class _UploadRing:
+    """Uploads of one record type or array shape: each distinct value copied asynchronously
+    from a pinned buffer into a device array, on the stream the kernels run on (so an array
+    is rewritten only after every launch before it has read it); the host reuses a pinned
+    buffer once its last copy has completed (an event). No allocation after the first
+    ``PARAM_SLOTS`` uploads."""
 
-    def __init__(self, dtype):
-        self.slots = [(cuda.pinned_array(1, dtype=dtype), cuda.device_array(1, dtype=dtype), cuda.event())
+    def __init__(self, shape, dtype):
+        self.slots = [(cuda.pinned_array(shape, dtype=dtype), cuda.device_array(shape, dtype=dtype), cuda.event())
                       for _ in range(PARAM_SLOTS)]
         self.used = [False] * PARAM_SLOTS
         self.next = 0
-        self.last = None  # (values, device record) of the last upload
+        self.last = None  # (values, device array) of the last upload
 
-    def __call__(self, P):
-        values = tuple(P)
-        if self.last is not None and self.last[0] == values:
+    def __call__(self, values):
+        """The device array holding ``values`` (a record's tuple, or an array of the shape)."""
+        same = values if isinstance(values, tuple) else values.tobytes()
+        if self.last is not None and self.last[0] == same:
             return self.last[1]
         k = self.next
         self.next = (k + 1) % PARAM_SLOTS
         host, dev, copied = self.slots[k]
         if self.used[k]:
             copied.synchronize()
-        host[0] = values
+        if isinstance(values, tuple):
+            host[0] = values
+        else:
+            host[...] = values
         stream = cuda.default_stream()
         dev.copy_to_device(host, stream=stream)
         copied.record(stream)
         self.used[k] = True
-        self.last = (values, dev)
+        self.last = (same, dev)
         return dev
 
 
@@ -178,8 +183,8 @@ def _params(P):
     key = (type(P), type(P[0]))
     ring = _RINGS.get(key)
     if ring is None:
-        ring = _RINGS[key] = _ParamRing(_record_dtype(P))
-    return ring(P)
+        ring = _RINGS[key] = _UploadRing(1, _record_dtype(P))
+    return ring(tuple(P))
 
 
 _BODIES = {}
@@ -982,6 +987,21 @@ def _reduce_rows(out, ops, owned=None):
     return _rows_to_host(final, ops)
 
 
+def _wrap_constants(grid, dt):
+    """The periodic wrap's constants of ``grid`` in dtype ``dt`` as device arrays, uploaded once
+    (the wrap runs every step): the box's lower corner and lengths, the inverse cell size,
+    the origin, the real cells per axis and the periodic axes."""
+    cache = grid.__dict__.setdefault("_device_wrap", {})
+    if dt not in cache:
+        lo, length = grid.lengths()
+        origin, inv = grid.geometry(dt)
+        axes = np.array([a for a in range(grid.dim) if grid.periodic[a]], dtype=np.int64)
+        real = np.asarray(grid.shape[: grid.dim], dtype=np.int64) - 2 * grid.reach
+        cache[dt] = tuple(cuda.to_device(np.ascontiguousarray(a))
+                          for a in (lo.astype(dt), length.astype(dt), inv, origin, real, axes))
+    return cache[dt]
+
+
 def _on_device(grid, dt):
     """The grid's origin and inverse cell size in dtype ``dt`` as device arrays, uploaded once."""
     cache = grid.__dict__.setdefault("_device_geometry", {})
@@ -1073,13 +1093,8 @@ class CudaBackend:
             return
         x = pset["x"]
         dt = np.dtype(x.dtype).type
-        lo, length = grid.lengths()
-        origin, inv = grid.geometry(dt)
-        axes = np.array([a for a in range(grid.dim) if grid.periodic[a]], dtype=np.int64)
-        real = np.asarray(grid.shape[: grid.dim], dtype=np.int64) - 2 * grid.reach
-        _wrap[_blocks(pset.n), THREADS](x, cuda.to_device(lo.astype(dt)), cuda.to_device(length.astype(dt)),
-                                         cuda.to_device(inv), cuda.to_device(origin), grid.reach,
-                                         cuda.to_device(real), cuda.to_device(axes))
+        lo, length, inv, origin, real, axes = _wrap_constants(grid, dt)
+        _wrap[_blocks(pset.n), THREADS](x, lo, length, inv, origin, grid.reach, real, axes)
 
     def make_map(self, fn, then=None):
         return _make_map_kernel(fn) if then is None else _make_fused_map_kernel(fn, then)
@@ -1187,6 +1202,17 @@ class CudaBackend:
 
     def index(self, idx):
         return cuda.to_device(np.ascontiguousarray(idx, dtype=np.int64))
+
+    def stage(self, name, a):
+        """A small host array (a few numbers that change each call, e.g. the moving bodies'
+        poses) on the device for the launches after it: copied asynchronously from pinned
+        memory into one of a few device arrays kept under ``name`` (no allocation, no wait)."""
+        a = np.ascontiguousarray(a)
+        key = (name, a.shape, a.dtype.str)
+        ring = _RINGS.get(key)
+        if ring is None:
+            ring = _RINGS[key] = _UploadRing(a.shape, a.dtype)
+        return ring(a)
 
     def check(self, pset, owned=None):
         """As the CPU backend's ``check``. In the same reduction, and the same copy to the

@@ -32,10 +32,12 @@ Kinds (``motion.kind``):
   interpolated linearly between them (the central difference of the rows: the slopes
   themselves jump at every row).
 """
+import collections
 import math
 from pathlib import Path
 
 import numpy as np
+from numba.extending import register_jitable
 
 from ..errors import CaseError
 from ..physics.registry import NONNEG, one_of
@@ -257,8 +259,31 @@ class Bodies:
         #: evaluation inside a step can see it where it is at that evaluation's time
         self.prescribed = any(m is not None and b not in self.floating for b, m in enumerate(self.motions))
 
+    def poses(self, t):
+        """Each body's pose at time t, one row each as ``place_point`` reads it (``POSE``)."""
+        rows = np.zeros((len(self.motions), POSE))
+        dim = self.dim
+        for b, mo in enumerate(self.motions):
+            if mo is None:
+                continue
+            d, R, u, omega, du, alpha = mo.pose(t)
+            rows[b, 0] = 1.0
+            rows[b, 1:1 + dim] = self.centres[b]
+            rows[b, 4:4 + dim] = d
+            R3 = np.zeros((3, 3))
+            R3[:dim, :dim] = R
+            rows[b, 7:16] = R3.ravel()
+            rows[b, 16:16 + dim] = u
+            rows[b, 22:22 + dim] = du
+            if dim == 2:  # about z
+                rows[b, 21], rows[b, 27] = omega, alpha
+            else:
+                rows[b, 19:22], rows[b, 25:28] = omega, alpha
+        return rows
+
     def place(self, t, x0, n0, body):
-        """(x, n, v, a) of every wall point at time t."""
+        """(x, n, v, a) of every wall point at time t (on the host; the run places its walls
+        with ``make_place`` on its backend, the same kinematics)."""
         x, v, a = x0.copy(), np.zeros_like(x0), np.zeros_like(x0)
         n = n0.copy() if n0 is not None else None
         for b, mo in enumerate(self.motions):
@@ -296,3 +321,74 @@ class Bodies:
     def restore(self, state):
         for b, f in self.floating.items():
             f.restore(state[str(b)])
+
+
+#: columns of a body's pose row (``Bodies.poses``): moving (1) or not (0), the centre c (3),
+#: the displacement d (3), the rotation R (3 x 3, by rows), the velocity u (3), the angular
+#: velocity omega (3), the acceleration du (3), the angular acceleration alpha (3); in 2D the
+#: vectors' third component is zero and omega and alpha are about z
+POSE = 28
+
+#: a wall set's view for ``make_place``: its points' reference positions and normals, their
+#: bodies, the bodies' poses, and what the placement writes
+WallPlacement = collections.namedtuple("WallPlacement", "x0 n0 body pose x n v a")
+
+
+def make_place(dim, normals):
+    """place(i, W, P): wall point i of the view W (``WallPlacement``) where its body's pose
+    row puts it: x = c + d + R (x0 - c), n = R n0 (``normals``), v = u + omega x r,
+    a = du + alpha x r + omega x (omega x r) with r = R (x0 - c); a point of a body that does
+    not move stays at x0 at rest. A map of the backend's (jitable), P unused."""
+
+    @register_jitable
+    def place(i, W, P):
+        b = W.body[i]
+        q = W.pose
+        if q[b, 0] == 0.0:
+            for k in range(dim):
+                W.x[k, i] = W.x0[k, i]
+                W.v[k, i] = 0.0
+                W.a[k, i] = 0.0
+                if normals:
+                    W.n[k, i] = W.n0[k, i]
+            return
+        r0 = 0.0
+        r1 = 0.0
+        r2 = 0.0
+        for l in range(dim):
+            y = W.x0[l, i] - q[b, 1 + l]
+            r0 += q[b, 7 + l] * y
+            r1 += q[b, 10 + l] * y
+            r2 += q[b, 13 + l] * y
+        if dim == 2:
+            om, al = q[b, 21], q[b, 27]
+            v0, v1, v2 = q[b, 16] - om * r1, q[b, 17] + om * r0, 0.0
+            a0 = q[b, 22] + al * -r1 - om * om * r0
+            a1 = q[b, 23] + al * r0 - om * om * r1
+            a2 = 0.0
+        else:
+            w0, w1, w2 = q[b, 19], q[b, 20], q[b, 21]
+            wr0, wr1, wr2 = w1 * r2 - w2 * r1, w2 * r0 - w0 * r2, w0 * r1 - w1 * r0
+            v0, v1, v2 = q[b, 16] + wr0, q[b, 17] + wr1, q[b, 18] + wr2
+            g0, g1, g2 = q[b, 25], q[b, 26], q[b, 27]
+            a0 = q[b, 22] + (g1 * r2 - g2 * r1) + (w1 * wr2 - w2 * wr1)
+            a1 = q[b, 23] + (g2 * r0 - g0 * r2) + (w2 * wr0 - w0 * wr2)
+            a2 = q[b, 24] + (g0 * r1 - g1 * r0) + (w0 * wr1 - w1 * wr0)
+        W.x[0, i] = q[b, 1] + q[b, 4] + r0
+        W.x[1, i] = q[b, 2] + q[b, 5] + r1
+        W.v[0, i] = v0
+        W.v[1, i] = v1
+        W.a[0, i] = a0
+        W.a[1, i] = a1
+        if dim == 3:
+            W.x[2, i] = q[b, 3] + q[b, 6] + r2
+            W.v[2, i] = v2
+            W.a[2, i] = a2
+        if normals:
+            for k in range(dim):
+                s = 0.0
+                for l in range(dim):
+                    s += q[b, 7 + 3 * k + l] * W.n0[l, i]
+                W.n[k, i] = s
+
+    return place

@@ -11,24 +11,27 @@ the steps clipped onto the 0.05 s sample times read the mean drag 22 % low; docs
 A floating body moves once, after the fluid's step (``solver.floating``); ``MoveWalls`` then
 places its walls.
 """
+from ..boundaries.motion import WallPlacement, make_place
 from ..errors import SimulationError
 
 
 def place_walls(state, bodies, t):
     """Moving walls to their position, normal, velocity and acceleration at time t, then wrapped and
-    sorted; nothing when every wall is fixed."""
+    sorted; nothing when every wall is fixed. The bodies' poses are made on the host (a row
+    each) and the points placed by a map of the backend's (``motion.make_place``): on a GPU
+    the walls stay there, and only the poses travel."""
     if not bodies.moving:
         return
     state.walls_t = t
-    be, w, dtype = state.backend, state.walls, state.dtype
-    x0, body = state.host(w, "x0", "body")
-    n0 = be.to_host(w["n0"]) if "n0" in w.arrays else None
-    x, n, v, a = bodies.place(t, x0.astype(float), None if n0 is None else n0.astype(float), body)
-    w["x"] = be.to_device(x.astype(dtype))
-    w["v"] = be.to_device(v.astype(dtype))
-    w["a"] = be.to_device(a.astype(dtype))
-    if n is not None:
-        w["n"] = be.to_device(n.astype(dtype))
+    be, w = state.backend, state.walls
+    normals = "n0" in w.arrays
+    placer = state.__dict__.get("_placer")
+    if placer is None:
+        placer = state.__dict__["_placer"] = be.make_map(make_place(state.dim, normals))
+    a = w.arrays
+    x0 = a["x0"]
+    placer(WallPlacement(x0, a["n0"] if normals else x0, a["body"], be.stage("poses", bodies.poses(t)), a["x"],
+                         a["n"] if normals else a["x"], a["v"], a["a"]), state.P)
     be.wrap(w, state.grid)
     lost = be.sort(w, state.grid)
     if lost:

@@ -314,7 +314,7 @@ def _spheric2(label, quick, overrides=()):
         judged = [r for r in rows if r[0] not in spheric2.SHOWN_ONLY]
         passed = all(r[5] for r in judged)
     worst = max(abs(r[3]) / r[4] for r in judged)
-    detail = (f"dp = {dp:g} m, {sim.n_fluid()} fluid particles. Error: absolute for times [s] and levels [m], "
+    detail = (f"dp = {sim.dp:g} m, {sim.n_fluid()} fluid particles. Error: absolute for times [s] and levels [m], "
               "relative for pressures.\n\n| figure | experiment | run | error | tolerance |\n|---|---|---|---|---|\n"
               + "\n".join(f"| {n} | {e:.4g} | {r:.4g} | {err:+.3g} | {tol:g}{'' if n not in spheric2.SHOWN_ONLY else ' (shown)'} |"
                           for n, e, r, err, tol, _ in rows))
