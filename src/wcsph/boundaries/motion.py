@@ -282,29 +282,14 @@ class Bodies:
         return rows
 
     def place(self, t, x0, n0, body):
-        """(x, n, v, a) of every wall point at time t (on the host; the run places its walls
-        with ``make_place`` on its backend, the same kinematics)."""
-        x, v, a = x0.copy(), np.zeros_like(x0), np.zeros_like(x0)
-        n = n0.copy() if n0 is not None else None
-        for b, mo in enumerate(self.motions):
-            if mo is None:
-                continue
-            sel = body == b
-            c = self.centres[b][:, None]
-            d, R, u, omega, du, alpha = mo.pose(t)
-            r = R @ (x0[:, sel] - c)
-            x[:, sel] = c + d[:, None] + r
-            if n is not None:
-                n[:, sel] = R @ n0[:, sel]
-            if self.dim == 2:
-                k_r = np.array([-r[1], r[0]])  # e_z x r
-                v[:, sel] = u[:, None] + omega * k_r
-                a[:, sel] = du[:, None] + alpha * k_r - omega * omega * r  # omega x (omega x r) = -omega^2 r
-            else:
-                w = np.asarray(omega, dtype=float)
-                wr = np.cross(w, r.T).T
-                v[:, sel] = u[:, None] + wr
-                a[:, sel] = du[:, None] + np.cross(alpha, r.T).T + np.cross(w, wr.T).T
+        """(x, n, v, a) of every wall point at time t on the host: ``make_place`` over the
+        points, as Python (the run's backend runs the same function as its map)."""
+        x, v, a = np.empty_like(x0), np.empty_like(x0), np.empty_like(x0)
+        n = np.empty_like(n0) if n0 is not None else None
+        W = WallPlacement(x0, x0 if n0 is None else n0, body, self.poses(t), x, x if n is None else n, v, a)
+        place = make_place(self.dim, n0 is not None)
+        for i in range(x0.shape[1]):
+            place(i, W, None)
         return x, n, v, a
 
     def reference(self, b, t):
