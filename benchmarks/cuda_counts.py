@@ -1,7 +1,8 @@
 """Per step of the CUDA backend, counted in Numba's CUDA simulator (no GPU needed): kernel
 launches (by kernel) and the scalars their arguments make (numba-cuda's dispatcher converts
-each in Python, a host cost per launch), device allocations, host-to-device and
-device-to-host copies. These
+each in Python, a host cost per launch), launches not queued on the run's stream, device
+allocations, host-to-device and device-to-host copies, and the host's waits: for the whole
+queue (a stream's synchronize) or for an earlier copy (an event's). These
 are what bind a small or medium GPU step (each launch costs microseconds of host time, each
 device-to-host copy a synchronisation), so they are counted where no GPU is lent.
 
@@ -80,6 +81,18 @@ def main(argv=None):
         return original_call(k, *args, **kw)
 
     kernel.FakeCUDAKernel.__call__ = call
+    original_configure = kernel.FakeCUDAKernel.__getitem__
+
+    def configure(k, configuration):
+        if counting[0] and (len(configuration) < 3 or configuration[2] in (0, None)):
+            counts["launch off the stream"] += 1
+        return original_configure(k, configuration)
+
+    kernel.FakeCUDAKernel.__getitem__ = configure
+    from numba.cuda.simulator import api
+
+    wrap(api.stream, "synchronize", "host waits for the queue")
+    wrap(api.Event, "synchronize", "host waits for an earlier copy")
     wrap(devicearray.FakeCUDAArray, "copy_to_host", "device->host copy")
     # an upload into an existing device array (P's record): a host source, not a device one
     wrap(devicearray.FakeCUDAArray, "copy_to_device",
@@ -109,11 +122,11 @@ def main(argv=None):
     counting[0] = True
     advance(a.steps)
     counting[0] = False
-    launches = sum(v for k, v in counts.items() if k.startswith("launch"))
+    launches = sum(v for k, v in counts.items() if k.startswith("launch ") and k != "launch off the stream")
     largest = counts.pop("_largest", 0)
     if a.json:
         print(json.dumps({"launches": launches / a.steps, "fluid": sim.n_fluid(), "largest launch": largest,
-                          **{k: v / a.steps for k, v in counts.items() if not k.startswith(("launch", "device f"))}}))
+                          **{k: v / a.steps for k, v in counts.items() if not k.startswith(("launch ", "device f")) or k == "launch off the stream"}}))
         return 0
     print(f"{a.case}, dp = {a.dp}, {sim.n_fluid()} fluid particles, per step over {a.steps} steps:")
     print(f"  kernel launches: {launches / a.steps:g}")

@@ -188,8 +188,9 @@ def test_a_cuda_step_reads_the_device_once_per_check_interval(name, dp, launches
     """Counted in the simulator (``benchmarks/cuda_counts.py``) over four steps after the
     warm-up, with the adaptive time step and ``time.check_interval = 4``: one device-to-host
     copy in the four (the ring of the checks, each reduced straight into its row; each step's
-    size is made on the device from the check before it, ``solver.timestep``), no
-    allocation, no copy on the device, and no upload: the step's
+    size is made on the device from the check before it, ``solver.timestep``), queued on the
+    run's stream into pinned memory and verified a read later (the host waits for no launch
+    it has just queued), no allocation, no copy on the device, and no upload: the step's
     parameters ``P`` are one device record that every launch reads instead of ~40 numbers by
     value, the same each step (its dt and the fields made from it written there by the
     device).
@@ -213,6 +214,10 @@ def test_a_cuda_step_reads_the_device_once_per_check_interval(name, dp, launches
     assert c.get("device->host copy", 0) == 0.25, c
     assert c.get("allocation", 0) == 0 and c.get("host->device copy", 0) == 0, c
     assert c.get("device->device copy", 0) == 0, c  # each check reduced straight into its row of the ring
+    # every launch and copy on the run's own stream; the ring's copy is asynchronous, and the
+    # host never waits for the queue it has just filled (at most for the copy a read before)
+    assert c.get("launch off the stream", 0) == 0 and c.get("host waits for the queue", 0) == 0, c
+    assert c.get("host waits for an earlier copy", 0) <= 0.25, c
     assert c["launches"] == launches, c
     assert c["kernel arguments"] <= scalars, c
 

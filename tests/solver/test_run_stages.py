@@ -132,15 +132,19 @@ class _Ring:
     defers_check = True
 
     def __init__(self, rows):
-        self.rows, self.measured, self.reads, self.sorts = rows, [], 0, 0
+        self.rows, self.measured, self.reads, self.finished, self.sorts = rows, [], 0, 0, 0
 
     def check_later(self, pset, row, rows):
         self.measured.append(self.rows[len(self.measured)])
 
-    def read_checks(self, pset, rows):
+    def start_read(self, pset, rows):
         self.reads += 1
         out, self.measured = self.measured[:rows], self.measured[rows:]
         return out
+
+    def finish_read(self, pset, handle):
+        self.finished += 1
+        return handle
 
     def sort(self, pset, grid):
         self.sorts += 1
@@ -157,19 +161,26 @@ def _deferred(rows, every, dt_min=0.0):
 
 
 def test_checks_read_every_few_steps_name_the_first_bad_step():
-    """Rows measured on a device are read every ``every`` steps and verified in step order: a
-    runaway at the second step stops the run at the read after the third, naming the second."""
+    """Rows measured on a device are copied every ``every`` steps and verified in step order
+    a read later (the copy runs while the device goes on): a runaway at the second step
+    stops the run when the copy after the third is verified, at the read after the sixth,
+    naming the second; a read the time loop asks for verifies every row at once."""
     ok, fast = (1.0, 1.0, 0, 0, 0.0), (900.0, 1.0, 0, 0, 0.0)  # |v|^2 = 900: 30 m/s against c0 = 20
-    s, be, check = _deferred([ok, fast, ok, ok], every=3)
-    s.steps, s.t = 1, 0.1
-    check(s)
-    s.steps, s.t = 2, 0.2
-    check(s)
-    assert be.reads == 0
-    s.steps, s.t = 3, 0.3
-    with pytest.raises(SimulationError, match="runaway") as e:
-        check(s)
-    assert "step 2" in str(e.value) and "t = 0.2 s" in str(e.value) and be.reads == 1
+    for forced in (False, True):
+        s, be, check = _deferred([ok, fast] + [ok] * 4, every=3)
+        for k in (1, 2, 3):
+            s.steps, s.t = k, 0.1 * k
+            check(s)
+        assert be.reads == 1 and be.finished == 0 and check.in_flight is not None
+        with pytest.raises(SimulationError, match="runaway") as e:
+            if forced:
+                check.read(s)
+            else:
+                for k in (4, 5, 6):
+                    s.steps, s.t = k, 0.1 * k
+                    check(s)
+        assert "step 2" in str(e.value) and "t = 0.2 s" in str(e.value) and be.finished == 1
+        assert be.reads == (1 if forced else 2)
 
 
 def test_a_read_that_finds_particles_outside_drops_them():

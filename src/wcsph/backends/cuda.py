@@ -89,6 +89,26 @@ def _blocks(n):
     return max(1, math.ceil(n / THREADS))
 
 
+_STREAM = []
+
+
+def _stream():
+    """The one stream every launch and copy of the run is queued on (made at the first use):
+    an explicit stream, not the legacy default one, so that nothing else a process runs on
+    the device is serialised with the step, and work is captured or timed on one queue."""
+    if not _STREAM:
+        _STREAM.append(cuda.stream())
+    return _STREAM[0]
+
+
+def _read(dev):
+    """A device array's values on the host, after every launch queued before (a blocking read)."""
+    s = _stream()
+    out = dev.copy_to_host(stream=s)
+    s.synchronize()
+    return out
+
+
 # ------------------------------------------------------------------ P on the device
 #: parameter records in flight: the host waits for the oldest upload only when this many
 #: distinct ``P`` have been uploaded since it was (never at a constant step, where P holds)
@@ -165,7 +185,7 @@ class _UploadRing:
             host[0] = values
         else:
             host[...] = values
-        stream = cuda.default_stream()
+        stream = _stream()
         dev.copy_to_device(host, stream=stream)
         copied.record(stream)
         self.used[k] = True
@@ -238,7 +258,7 @@ def _flush_sizing():
     a sort could make it."""
     sizing = _take_sizing()
     if sizing is not None:
-        _sizer(*sizing[0])[1, 1](*sizing[1])
+        _sizer(*sizing[0])[1, 1, _stream()](*sizing[1])
 
 
 @cuda.jit(device=True)
@@ -510,17 +530,17 @@ def _scan_scatter(cell, ncells, work, counted=False):
     n = cell.size
     count, sums, chunk, ticket = _sort_buffers(work, ncells)
     if n and not counted:
-        _histogram[_blocks(n), THREADS](cell, count, sums, chunk)
+        _histogram[_blocks(n), THREADS, _stream()](cell, count, sums, chunk)
     start = _buffer(work, "start", ncells + 2)
     fill = _buffer(work, "fill", ncells + 2)
     sizing = _take_sizing()
     if sizing is None:
-        _scan_chunks[_blocks(sums.size), THREADS](count, chunk, sums, start, fill, ticket)
+        _scan_chunks[_blocks(sums.size), THREADS, _stream()](count, chunk, sums, start, fill, ticket)
     else:  # the step's size, made in the same launch (before any launch reads P)
-        _scan_sized(sizing[0])[_blocks(sums.size), THREADS](count, chunk, sums, start, fill, ticket, *sizing[1])
+        _scan_sized(sizing[0])[_blocks(sums.size), THREADS, _stream()](count, chunk, sums, start, fill, ticket, *sizing[1])
     raw = _buffer(work, "raw", n)
     if n:
-        _scatter_cells[_blocks(n), THREADS](cell, fill, raw)
+        _scatter_cells[_blocks(n), THREADS, _stream()](cell, fill, raw)
     return raw, start
 
 
@@ -530,7 +550,7 @@ def _counting_sort(cell, ncells, work, counted=False):
     raw, start = _scan_scatter(cell, ncells, work, counted)
     perm = _buffer(work, "perm", cell.size)
     if cell.size:
-        _place_cells[_blocks(cell.size), THREADS](cell, start, raw, perm)
+        _place_cells[_blocks(cell.size), THREADS, _stream()](cell, start, raw, perm)
     return perm, start
 
 
@@ -673,7 +693,7 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None
         n = I.x.shape[1]
         if n:
             run, args = kernel_for(I, J1, J2, P, G, S, R)
-            run[_blocks(n), THREADS](*args)
+            run[_blocks(n), THREADS, _stream()](*args)
 
     launch.kernel_for = kernel_for  # what ``validation.ptx`` compiles
     return launch
@@ -694,7 +714,7 @@ def _make_map_kernel(fn):
     def launch(I, P):
         n = I.x.shape[1]
         if n:
-            kernel_of(type(P))[_blocks(n), THREADS](I, _params(P))
+            kernel_of(type(P))[_blocks(n), THREADS, _stream()](I, _params(P))
 
     launch.kernel_of = kernel_of
     return launch
@@ -717,7 +737,7 @@ def _make_fused_map_kernel(fn, then):
     def launch(I, P, J):
         n = I.x.shape[1]
         if n:
-            kernel_of(type(P))[_blocks(n), THREADS](I, _params(P), J)
+            kernel_of(type(P))[_blocks(n), THREADS, _stream()](I, _params(P), J)
 
     launch.kernel_of = kernel_of
     return launch
@@ -773,11 +793,11 @@ def _make_tail_kernel(dim, fn, walk, zero):
         nb = _blocks(n)
         run = kernel_of(type(P))
         if measure is None:
-            run[nb, THREADS](I, _params(P), F, J, G, False, *_no_measure(I.x.dtype))
+            run[nb, THREADS, _stream()](I, _params(P), F, J, G, False, *_no_measure(I.x.dtype))
             return
         pset, grid = measure
         args = _measure_args(pset, grid, nb)
-        run[nb, THREADS](I, _params(P), F, J, G, True, *args)
+        run[nb, THREADS, _stream()](I, _params(P), F, J, G, True, *args)
         pset.__dict__["_counted"] = (pset["x"], n, grid)
         pset.__dict__["_measured"] = (pset["x"], n, args[9])
 
@@ -805,7 +825,7 @@ def _make_reduce_kernel(fn):
         if n == 0:
             return 0.0, 0.0, 0.0
         out = _scratch((3, n))
-        kernel_of(type(P))[_blocks(n), THREADS](I, _params(P), out)
+        kernel_of(type(P))[_blocks(n), THREADS, _stream()](I, _params(P), out)
         return _reduce_rows(out, ("sum", "sum", "max"), owned)
 
     launch.kernel_of = kernel_of
@@ -971,7 +991,7 @@ def _row_values(r, ops):
 
 def _rows_to_host(final, ops):
     """The reduced rows copied to the host (``_row_values``)."""
-    return _row_values(final.copy_to_host()[:, 0], ops)
+    return _row_values(_read(final)[:, 0], ops)
 
 
 def _reduce_rows(out, ops, owned=None):
@@ -983,7 +1003,7 @@ def _reduce_rows(out, ops, owned=None):
         return (0.0,) * rows
     nb = min(REDUCE_BLOCKS, _blocks(n))
     partial, final = _scratch((rows, nb)), _scratch((rows, 1))
-    _reduce_blocks[nb, THREADS](out, _flags(ops), _mask(owned), owned is not None, partial, final, _counter())
+    _reduce_blocks[nb, THREADS, _stream()](out, _flags(ops), _mask(owned), owned is not None, partial, final, _counter())
     return _rows_to_host(final, ops)
 
 
@@ -1076,7 +1096,7 @@ class CudaBackend:
         return cuda.to_device(np.ascontiguousarray(a))
 
     def to_host(self, a):
-        return a.copy_to_host() if hasattr(a, "copy_to_host") else np.asarray(a)
+        return _read(a) if hasattr(a, "copy_to_host") else np.asarray(a)
 
     def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False,
                   periodic=None, then=None, parts=None):
@@ -1094,7 +1114,7 @@ class CudaBackend:
         x = pset["x"]
         dt = np.dtype(x.dtype).type
         lo, length, inv, origin, real, axes = _wrap_constants(grid, dt)
-        _wrap[_blocks(pset.n), THREADS](x, lo, length, inv, origin, grid.reach, real, axes)
+        _wrap[_blocks(pset.n), THREADS, _stream()](x, lo, length, inv, origin, grid.reach, real, axes)
 
     def make_map(self, fn, then=None):
         return _make_map_kernel(fn) if then is None else _make_fused_map_kernel(fn, then)
@@ -1126,12 +1146,12 @@ class CudaBackend:
             work["cell"], pset["cell"] = pset["cell"], work["cell"]
         else:
             if counted is not None:  # counted for positions that have changed since
-                _zero[_blocks(count.size), THREADS](count)
-                _zero[_blocks(sums.size), THREADS](sums)
+                _zero[_blocks(count.size), THREADS, _stream()](count)
+                _zero[_blocks(sums.size), THREADS, _stream()](sums)
             if "cell" not in pset.arrays or pset["cell"].shape[0] != n:
                 pset["cell"] = cuda.device_array(n, dtype=INDEX)
             if n:
-                _cell_ids_counted[_blocks(n), THREADS](x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k,
+                _cell_ids_counted[_blocks(n), THREADS, _stream()](x, origin, inv_cell, g.nx, g.ny, g.nz, g.ncells, g.k,
                                                        _unused(np.uint8) if drop is None else drop, drop is not None,
                                                        pset["cell"], count, sums, chunk)
         cell = pset["cell"]
@@ -1143,7 +1163,7 @@ class CudaBackend:
         if drop is None and stays is not None and stays[0] is x and stays[1] == n and stays[2] is grid:
             n_in = n  # the last check found these positions inside the grid: no read
         else:
-            n_in = int(start_d[g.ncells:g.ncells + 1].copy_to_host()[0])
+            n_in = int(_read(start_d[g.ncells:g.ncells + 1])[0])
         pset["start"] = start_d
         pset["_perm"] = perm  # new position -> old (a decomposed run maps its halo lists through it)
         dropped = n - n_in
@@ -1173,12 +1193,12 @@ class CudaBackend:
         pairs = tuple((tuple(a), tuple(b)) for a, b in groups.values())
         if n_in and refresh is not None:
             fn, _, view, P = refresh
-            _place_then(fn, type(P))[_blocks(n), THREADS](cell, start_d, raw, perm, pairs, n_in, view(pset),
+            _place_then(fn, type(P))[_blocks(n), THREADS, _stream()](cell, start_d, raw, perm, pairs, n_in, view(pset),
                                                           _params(P))
         elif n_in:
-            _place_fields[_blocks(n), THREADS](cell, start_d, raw, perm, pairs, n_in)
+            _place_fields[_blocks(n), THREADS, _stream()](cell, start_d, raw, perm, pairs, n_in)
         elif n:
-            _place_cells[_blocks(n), THREADS](cell, start_d, raw, perm)
+            _place_cells[_blocks(n), THREADS, _stream()](cell, start_d, raw, perm)
         return dropped
 
     def take(self, a, idx):
@@ -1188,8 +1208,8 @@ class CudaBackend:
         flat = a.reshape(-1, a.shape[-1]) if a.ndim > 2 else a
         out = cuda.device_array(flat.shape[:-1] + (n,), dtype=a.dtype)
         if n:
-            (_gather1 if flat.ndim == 1 else _gather2)[_blocks(n), THREADS](flat, idx, out)
-        return out.copy_to_host().reshape(a.shape[:-1] + (n,))
+            (_gather1 if flat.ndim == 1 else _gather2)[_blocks(n), THREADS, _stream()](flat, idx, out)
+        return _read(out).reshape(a.shape[:-1] + (n,))
 
     def put(self, a, idx, values):
         """a[..., idx] = values (host), in place on the device."""
@@ -1198,7 +1218,7 @@ class CudaBackend:
             return
         flat = a.reshape(-1, a.shape[-1]) if a.ndim > 2 else a
         src = cuda.to_device(np.ascontiguousarray(values.reshape(flat.shape[:-1] + (n,))))
-        (_scatter1 if flat.ndim == 1 else _scatter2)[_blocks(n), THREADS](src, idx, flat)
+        (_scatter1 if flat.ndim == 1 else _scatter2)[_blocks(n), THREADS, _stream()](src, idx, flat)
 
     def index(self, idx):
         return cuda.to_device(np.ascontiguousarray(idx, dtype=np.int64))
@@ -1250,13 +1270,13 @@ class CudaBackend:
             return measured[2]
         nb = min(REDUCE_BLOCKS, _blocks(n))
         args = _measure_args(pset, grid if owned is None else None, nb)
-        _check_blocks[nb, THREADS](x, pset["v"], pset["dvdt"], *args[:7], _mask(owned), owned is not None,
+        _check_blocks[nb, THREADS, _stream()](x, pset["v"], pset["dvdt"], *args[:7], _mask(owned), owned is not None,
                                    *args[7:11], grid is not None and owned is None, *args[11:])
         if grid is not None and owned is None:
             pset.__dict__["_counted"] = (x, n, grid)
         return args[9]
 
-    #: ``check_later`` and ``read_checks``: the host may read the check every few steps
+    #: ``check_later``, ``start_read`` and ``finish_read``: the host may read the check every few steps
     defers_check = True
 
     def check_later(self, pset, row, rows):
@@ -1264,7 +1284,8 @@ class CudaBackend:
         of ``rows`` on the device, with no copy to the host (``solver.check``). The next sort
         then takes every particle as inside the grid without asking: one that has left sorts
         last, past the cells' runs, where the passes skip it and park it beyond the grid
-        (``_pass_body``) until ``read_checks`` tells the host and a sort drops it."""
+        (``_pass_body``) until a read of the ring (``finish_read``) tells the host and a sort
+        drops it."""
         ring = pset.__dict__.get("_ring")
         if ring is None or ring.shape[0] != rows:  # a fifth column: the step's size (``size_step``)
             ring = pset.__dict__["_ring"] = cuda.device_array((rows, 5, 1), dtype=np.float64)
@@ -1273,23 +1294,44 @@ class CudaBackend:
         pset.__dict__["_stays"] = None
         final = self._final(pset, None, grid)
         if pset.__dict__.get("_into_row") != row:  # not reduced into the ring's row: copied there, on the device
-            ring[row, :4].copy_to_device(final)
-        # the next check reduces into the next row (after a read, the first: ``read_checks``)
+            ring[row, :4].copy_to_device(final, stream=_stream())
+        # the next check reduces into the next row (after a read, the first: ``start_read``)
         pset.__dict__["_into_row"] = row + 1 if row + 1 < rows else None
         if grid is not None:
             pset.__dict__["_stays"] = (pset["x"], pset.n, grid)
 
-    def read_checks(self, pset, rows):
-        """The first ``rows`` rows of the ring ``check_later`` fills, in one copy to the host:
-        (max |v|^2, max |a|^2, non-finite count, count outside the grid, the step's size where
-        the device made it) each. When any found a particle outside, the next sort reads its
-        count back (and drops them)."""
-        out = [(vmax2, amax2, int(bad), int(outside), float(row[4])) for row in
-               pset.__dict__["_ring"][:rows].copy_to_host()[:, :, 0]
+    def start_read(self, pset, rows):
+        """The first ``rows`` rows of the ring ``check_later`` fills, copied to the host
+        asynchronously on the run's stream into one of two pinned buffers (an event marks the
+        copy's end); the launches queued after it go on while it runs, and the next check
+        reduces into the ring's first row again (after the copy, in the stream's order).
+        ``finish_read`` waits for it and returns the rows."""
+        buffers = pset.__dict__.get("_reads")
+        if buffers is None or buffers[0][0].shape[0] < rows:
+            n = pset.__dict__["_ring"].shape[0]
+            buffers = pset.__dict__["_reads"] = [(cuda.pinned_array((n, 5, 1), dtype=np.float64), cuda.event())
+                                                 for _ in range(2)]
+        k = pset.__dict__.get("_read_next", 0)
+        pset.__dict__["_read_next"] = 1 - k
+        host, copied = buffers[k]
+        stream = _stream()
+        pset.__dict__["_ring"][:rows].copy_to_host(host[:rows], stream=stream)
+        copied.record(stream)
+        pset.__dict__["_into_row"] = 0
+        return k, rows
+
+    def finish_read(self, pset, handle):
+        """The rows ``start_read`` copied, once the copy is done (the host waits only for the
+        launches queued before it): (max |v|^2, max |a|^2, non-finite count, count outside the
+        grid, the step's size where the device made it) each. When any found a particle
+        outside, the next sort reads its count back (and drops them)."""
+        k, rows = handle
+        host, copied = pset.__dict__["_reads"][k]
+        copied.synchronize()
+        out = [(vmax2, amax2, int(bad), int(outside), float(row[4])) for row in host[:rows, :, 0]
                for vmax2, amax2, bad, outside in (_row_values(row[:4], CHECK_OPS),)]
         if any(o[3] for o in out):
             pset.__dict__["_stays"] = None
-        pset.__dict__["_into_row"] = 0
         return out
 
     def size_step(self, pset, last, row, P, constants, stable, stepped, value):

@@ -6,8 +6,10 @@
 **Read every few steps.** A backend that keeps the state on a device (``defers_check``)
 can measure each step into a ring of rows on the device and leave the host to read the ring
 every ``every`` steps (``defer``): one copy to the host per ``every`` steps instead of one a
-step, and no wait for the device between them. The rows are verified in step order, so an
-error still names the first bad step and its time. Only where nothing on the host needs the figures
+step, and no wait for the device between them. The copy is asynchronous and its rows are
+verified a read later (``read_ahead``): the host never waits for the steps it has just
+queued. The rows are verified in step order, so an error still names the first bad step
+and its time (found up to two reads after it). Only where nothing on the host needs the figures
 between reads: a constant time step, or an adaptive one that the device makes from them
 (``solver.timestep``: each row then holds the step's size too, and the read sums the time),
 one process, no open boundary or floating body, no choice that reads the step's largest
@@ -26,6 +28,7 @@ class Check:
         self.every = 1
         self.dt_min = dt_min  # ``time.dtMin``: a step the device made shorter stops the run at the read
         self.pending = []  # (steps, t, particles, sized on the device) of each row measured and not read yet
+        self.in_flight = None  # (pending, the backend's read, its lead): rows on their way to the host
         self.last = None  # the ring's row of the last step's check (read or not): a device sizes the next from it
 
     def defer(self, every):
@@ -38,28 +41,48 @@ class Check:
             state.backend.check_later(state.fluid, self.last, self.every)
             self.pending.append((state.steps, state.t, state.fluid.n, state.dt is None))
             if len(self.pending) == self.every:
-                self.read(state)
+                self.read_ahead(state)
             return
         self.read(state)
         self.last = None
         self.measure(state)
         self.verify(state)
 
+    def read_ahead(self, state):
+        """The rows measured since the last read start on their way to the host, and the rows
+        started the read before are verified: the host waits only for the device's work
+        queued before those (a read behind, the device is never left without a queue)."""
+        lead = state.lead - (self.in_flight[2] if self.in_flight else 0.0)
+        previous = self.in_flight
+        self.in_flight = (self.pending, state.backend.start_read(state.fluid, len(self.pending)), lead)
+        self.pending = []
+        if previous is not None:
+            self.finish(state, *previous)
+
     def read(self, state):
-        """The rows measured since the last read, verified in step order; the particles they
-        found outside the grid dropped. Steps the device sized move the time on by the sizes
-        read (the host's sum of the same numbers); one shorter than ``time.dtMin`` stops the
-        run as the host's rule would."""
-        if not self.pending:
-            return
-        pending, self.pending = self.pending, []
-        rows = state.backend.read_checks(state.fluid, len(pending))
+        """Every row measured and not verified yet (those on their way first): the host's
+        state is then the device's."""
+        if self.in_flight is not None:
+            previous, self.in_flight = self.in_flight, None
+            self.finish(state, *previous)
+        if self.pending:
+            pending, self.pending = self.pending, []
+            self.finish(state, pending, state.backend.start_read(state.fluid, len(pending)), state.lead)
+
+    def finish(self, state, pending, handle, lead):
+        """The rows of one read, verified in step order; the particles they found outside the
+        grid dropped. Steps the device sized move the time on by the sizes read (the host's
+        sum of the same numbers; ``lead`` bounded them); one shorter than ``time.dtMin`` stops
+        the run as the host's rule would."""
+        rows = state.backend.finish_read(state.fluid, handle)
         times, t = [], state.t
         for (_, t_host, _, on_device), row in zip(pending, rows):
             t = t + row[4] if on_device else t_host
             times.append(t)
-        start, state.t, state.lead = state.t, times[-1], 0.0
-        if pending[-1][3]:  # the last step's size and parameters, as the host would have them
+        start, state.t = state.t, times[-1]
+        newest = self.in_flight is None and not self.pending
+        state.lead = 0.0 if newest else max(state.lead - lead, 0.0)
+        if pending[-1][3] and newest:  # the last step's size and parameters, as the host would have them
             state.dt = rows[-1][4]
             state.P = state.params_for(state.dt)
         left = False
