@@ -222,6 +222,21 @@ def test_a_cuda_step_reads_the_device_once_per_check_interval(name, dp, launches
     assert c["kernel arguments"] <= scalars, c
 
 
+def test_moving_walls_are_sorted_without_reading_their_count():
+    """``couette_2d`` (its plate moving along the periodic axis) counted in the simulator:
+    the moving walls' sort reads no count back where their bounds (``Bodies.bounds``) lie
+    inside the grid, so the step's one copy to the host is its check (the step's size is
+    made on the host with walls on a prescribed path); three before. (``moving_square_2d``
+    counts the same, 4,900 particles at its coarsest: minutes in the simulator.)"""
+    for name, dp in (("couette_2d", 2.5e-5),):
+        r = subprocess.run([sys.executable, COUNTS, name, "--dp", str(dp), "--steps", "2", "--threads", "32",
+                            "--json"], capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stderr[-3000:]
+        c = json.loads(r.stdout.strip().splitlines()[-1])
+        assert c.get("device->host copy", 0) == 1 and c.get("allocation", 0) == 0, (name, c)
+        assert c.get("launch off the stream", 0) == 0, (name, c)
+
+
 LEAVING = FAST_SIMULATOR + r"""
 import json, numpy as np, wcsph
 from wcsph.case.config import validate

@@ -200,8 +200,8 @@ MOTION_SPEC = {"velocity": None, "omega": 0.0, "amplitude": None, "angle_amplitu
 ])
 def test_wall_velocity_and_acceleration_are_the_rates_of_its_position(dim, motion):
     """v_b and a_b of every wall point are the first and second time derivatives of its
-    position (central differences; the centripetal part included), and normals turn with
-    the body."""
+    position (central differences; the centripetal part included), normals turn with the
+    body, and ``Bodies.bounds`` holds the points wherever the motion takes them."""
     spec = dict(MOTION_SPEC, **motion)
     if dim == 2:
         x0 = np.array([[0.0, 0.1, 0.1, 0.0], [0.0, 0.0, 0.1, 0.1]])
@@ -221,6 +221,14 @@ def test_wall_velocity_and_acceleration_are_the_rates_of_its_position(dim, motio
     assert np.allclose(np.linalg.norm(n, axis=0), 1)
     edge = x[:, 1] - x[:, 0]  # the bottom edge; its normal stays perpendicular to it
     assert abs(edge @ n[:, 0]) < 1e-12
+    # the box ``bounds`` gives without placing the points holds them (what lets a GPU sort
+    # the moving walls without reading their count back), and is not loose by more than
+    # the body's turned box
+    for tt in np.linspace(0.0, 2.0, 21):
+        x, *_ = b.place(tt, x0, n0, body)
+        lo, hi = b.bounds(b.poses(tt))
+        assert np.all(x >= lo[:, None] - 1e-12) and np.all(x <= hi[:, None] + 1e-12)
+        assert np.all(hi - lo <= np.sqrt(dim) * (x0.max(axis=1) - x0.min(axis=1)).max() + 1e-12)
 
 
 def test_wavemaker_strokes_follow_linear_theory():

@@ -375,9 +375,10 @@ class CpuBackend:
         the particles with ``owned[i]`` when the call passes ``owned`` (a decomposed run)."""
         return _make_reduce_loop(fn)
 
-    def sort(self, pset, grid, drop=None, refresh=None):
+    def sort(self, pset, grid, drop=None, refresh=None, inside=False):
         """Reorder ``pset`` by cell; drop particles outside the domain. Returns how many
-        were dropped. Each field is gathered into a spare array kept from the previous sort
+        were dropped (``inside``: the caller knows that none is; the count is made here
+        anyway, at no cost to speak of). Each field is gathered into a spare array kept from the previous sort
         (``_spare_NAME``), which then becomes the next spare: no allocation per step.
         ``drop``: flags (uint8) of particles to drop as well (a decomposed run's old ghosts
         and emigrants). ``refresh`` = (fn, map, view, P): after the sort, ``map`` (made of

@@ -1131,9 +1131,11 @@ class CudaBackend:
         and the walk (``check`` then reads its figures, and the next sort its cell counts)."""
         return _make_tail_kernel(dim, fn, walk, np.dtype(dtype).type(0))
 
-    def sort(self, pset, grid, drop=None, refresh=None):
+    def sort(self, pset, grid, drop=None, refresh=None, inside=False):
         """As the CPU backend's ``sort`` (``drop``: a device array of flags); ``refresh`` in
-        the launch that moves the fields (``_place_then``)."""
+        the launch that moves the fields (``_place_then``). With ``inside`` (the caller
+        knows every particle is in the grid: the moving walls' bounds) the count is not read
+        back."""
         g = grid.view()
         x = pset["x"]
         n = pset.n
@@ -1160,8 +1162,8 @@ class CudaBackend:
         stays = pset.__dict__.get("_stays")
         pset.__dict__["_stays"] = None
         pset.__dict__["_grid"] = grid
-        if drop is None and stays is not None and stays[0] is x and stays[1] == n and stays[2] is grid:
-            n_in = n  # the last check found these positions inside the grid: no read
+        if drop is None and (inside or stays is not None and stays[0] is x and stays[1] == n and stays[2] is grid):
+            n_in = n  # the last check (or the caller) found these positions inside the grid: no read
         else:
             n_in = int(_read(start_d[g.ncells:g.ncells + 1])[0])
         pset["start"] = start_d

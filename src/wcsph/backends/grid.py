@@ -80,6 +80,15 @@ class Grid:
         real = np.asarray(self.shape[: self.dim]) - 2 * self.reach
         return self.origin + self.reach * cell, real * cell
 
+    def holds(self, lo, hi):
+        """Whether every point of the box [lo, hi] falls in a real cell (a sort keeps it),
+        by a thousandth of a cell to spare for the positions' rounding; a periodic axis
+        holds any box (the wrap brings each point in)."""
+        start, length = self.lengths()
+        spare = 1e-3 * np.asarray(self.cell)
+        return all(self.periodic[a] or (lo[a] >= start[a] + spare[a] and hi[a] < start[a] + length[a] - spare[a])
+                   for a in range(self.dim))
+
     @property
     def ncells(self):
         return int(np.prod(self.shape))

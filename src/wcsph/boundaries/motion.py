@@ -255,6 +255,12 @@ class Bodies:
             else:
                 self.centres.append(pts.mean(axis=1) if pts.shape[1] else np.zeros(dim))
         self.moving = any(m is not None for m in self.motions)
+        # what ``bounds`` needs: each body's box at rest (middle, half-widths), and the box of
+        # the points of the bodies that do not move
+        self.boxes = [((p.min(axis=1) + p.max(axis=1)) / 2, (p.max(axis=1) - p.min(axis=1)) / 2) if p.shape[1]
+                      else (np.zeros(dim), np.zeros(dim)) for p in (x0[:, body == b] for b in range(len(specs)))]
+        still = np.isin(body, [b for b, m in enumerate(self.motions) if m is None])
+        self.still_box = (x0[:, still].min(axis=1), x0[:, still].max(axis=1)) if still.any() else None
         #: a wall moves along a prescribed path: its place depends on the time alone, so an
         #: evaluation inside a step can see it where it is at that evaluation's time
         self.prescribed = any(m is not None and b not in self.floating for b, m in enumerate(self.motions))
@@ -280,6 +286,29 @@ class Bodies:
             else:
                 rows[b, 19:22], rows[b, 25:28] = omega, alpha
         return rows
+
+    def bounds(self, poses):
+        """(lo, hi): a box that holds every wall point where ``poses`` (``poses(t)``) puts it,
+        without placing them: each moving body's box at rest, moved and turned as its pose
+        says (a box turned by R about its middle m fits in the box of half-widths |R| e about
+        c + d + R (m - c)); the other points where they were made."""
+        los, his = [], []
+        if self.still_box is not None:
+            los.append(self.still_box[0])
+            his.append(self.still_box[1])
+        dim = self.dim
+        for b, q in enumerate(poses):
+            if q[0] != 0.0:
+                mid, half = self.boxes[b]
+                R = q[7:16].reshape(3, 3)[:dim, :dim]
+                c = q[1:1 + dim]
+                m = c + q[4:4 + dim] + R @ (mid - c)
+                e = np.abs(R) @ half
+                los.append(m - e)
+                his.append(m + e)
+        if not los:
+            return np.zeros(dim), np.zeros(dim)
+        return np.min(los, axis=0), np.max(his, axis=0)
 
     def place(self, t, x0, n0, body):
         """(x, n, v, a) of every wall point at time t on the host: ``make_place`` over the
