@@ -982,3 +982,76 @@ def test_a_box_thrown_into_a_floating_3d_l_mesh_stays_out_of_it_and_keeps_the_mo
         assert e <= E * (1 + 1e-12)
         E = e
     assert met
+
+
+def _piston(lo, hi, velocity, omega=0.0, centre=None):
+    """An obstacle box on a prescribed path (constant ``velocity``, turning at ``omega`` about
+    ``centre``) as a floating body's contact sees it (``floating.Driven``)."""
+    from wcsph.boundaries.floating import Driven
+    from wcsph.boundaries.motion import Motion
+
+    spec = {"kind": "velocity", "velocity": list(velocity), "omega": omega, "amplitude": None, "angle_amplitude": 0.0,
+            "frequency": 0.0, "phase": 0.0, "centre": None, "axis": None, "file": "", "height": 0.0, "period": 0.0,
+            "depth": 0.0, "ramp": -1.0}
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    c = (lo + hi) / 2 if centre is None else np.asarray(centre, dtype=float)
+    grid = [np.linspace(lo[a], hi[a], 9) for a in range(2)]
+    pts = np.array([p for p in np.array(np.meshgrid(*grid)).reshape(2, -1).T
+                    if np.any(np.isclose(p, lo) | np.isclose(p, hi))]).T
+    return Driven(Motion(spec, 2), c, pts, [box_faces(lo - c, hi - c)])
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.25])
+def test_a_piston_on_its_path_pushes_a_floating_box_ahead_of_it(offset):
+    """A paddle on a prescribed path (1 m/s along x, no gravity) meets a floating box at rest
+    0.2 m ahead of it: no wall point of either is ever inside the other, the paddle keeps
+    its path (an infinite mass), and, met face to face, the box leaves with the paddle's
+    speed exactly without turning (a rigid, inelastic contact); met by its lower edge alone
+    (the box 0.25 m higher: the paddle's top 0.05 m above its bottom, below its centre), the
+    box is pushed and turned.
+    Before the change the two met through the fluid alone: without fluid the paddle passed
+    through the box."""
+    from wcsph.boundaries.floating import collide
+
+    paddle = _piston([0.2, 0.3], [0.4, 0.7], [1.0, 0.0])
+    box, pts = _box_body([0.6, 0.4 + offset], [0.8, 0.6 + offset], 1.0)
+    box.meet(pts, [])
+    dt = 1e-3
+    for k in range(1, 401):
+        t = k * dt
+        box.step(dt, [0.0, 0.0], 0.0, [0.0, 0.0])
+        paddle.at(t)
+        collide(box, paddle)
+        assert paddle.c == pytest.approx([0.3 + t, 0.5], abs=1e-12) and paddle.theta == 0.0
+        for p, q, lo, hi in ((box, paddle, [-0.1, -0.2], [0.1, 0.2]), (paddle, box, *box.box)):
+            x = p.c[:, None] + _rot(p.theta) @ p.points
+            y = _rot(q.theta).T @ (x - q.c[:, None])
+            inside = np.all((y > np.asarray(lo)[:, None] + 1e-12) & (y < np.asarray(hi)[:, None] - 1e-12), axis=0)
+            assert not inside.any(), t
+    assert box.c[0] > 0.7 + 0.1  # moved on beyond where it started
+    if offset == 0.0:
+        assert box.u == pytest.approx([1.0, 0.0], abs=1e-12) and abs(box.omega) < 1e-12
+        assert box.c[0] - 0.1 == pytest.approx(paddle.c[0] + 0.1, abs=1e-9)  # face to face
+    else:
+        assert box.u[0] >= 1.0 - 1e-9 and abs(box.omega) > 0.5, (box.u, box.omega)
+
+
+def test_a_case_box_pushed_by_a_moving_obstacle_stays_out_of_it(tmp_path):
+    """In a case: a floating box on the tank's floor (the water behind a dam at the far end)
+    and an obstacle box on a prescribed path (0.5 m/s along x) that reaches it at 0.3 s.
+    The box is pushed along the floor ahead of the obstacle, its face on the obstacle's
+    (within 1e-9 m), at the obstacle's speed, instead of being passed through."""
+    case = _free_fall_case(2)
+    case["time"]["end"] = 0.6
+    case["fluid"] = [{"min": [1.8, 0.0], "max": [2.0, 0.2]}]
+    case["obstacle"].append({"min": [1.65, 0.0], "max": [1.75, 0.5]})  # the dam
+    case["obstacle"][0].update(min=[0.6, 0.0], max=[0.8, 0.2])  # resting on the floor
+    case["obstacle"].append({"name": "paddle", "min": [0.2, 0.0], "max": [0.45, 0.4],
+                             "motion": {"kind": "velocity", "velocity": [0.5, 0.0]}})
+    wcsph.run(case, output=tmp_path, progress=False)
+    last = list(csv.DictReader(open(tmp_path / "probes.csv")))[-1]
+    t = float(last["time"])
+    paddle_front = 0.45 + 0.5 * t
+    assert float(last["box_x"]) - 0.1 == pytest.approx(paddle_front, abs=1e-9)
+    assert float(last["box_vx"]) == pytest.approx(0.5, abs=1e-9)
+    assert float(last["box_y"]) == pytest.approx(0.1, abs=1e-9)

@@ -70,8 +70,11 @@ diagonals between pieces. A concave closed 3D mesh, floating or a fixed ``[[wall
 is held as itself (``MeshShape``): a point is inside where a ray from it crosses the mesh an
 odd number of times, and the deepest point inside leaves through its nearest point of the
 surface, up to
-``MESH_PASSES`` pushes per contact (an inner corner takes one per face). A moving obstacle
-meets a floating body through the fluid between them alone.
+``MESH_PASSES`` pushes per contact (an inner corner takes one per face). An obstacle box or
+closed polygon on a prescribed path (``Driven``) is the other side of such a contact with an
+infinite mass: the push is all the floating body's, and the impulses take out the speed at
+which the body approaches the obstacle's moving surface (a piston pushes a box ahead of it
+at its own speed). A moving wall mesh or particle file meets a body through the fluid alone.
 """
 import math
 
@@ -1064,6 +1067,74 @@ class MeshShape:
         inside[idx[deep]] = True
         k = int(np.argmax(d))
         return inside, float(d[k]), (q[:, k] - y[:, idx[k]]) / d[k]
+
+
+class Driven:
+    """An obstacle on a prescribed path as the other side of a contact with a floating body
+    (``collide``): its shapes and wall points in its own frame about its centre, placed by
+    its motion at the contact's time (``at``); it takes no push and no impulse (an infinite
+    mass), and its velocity at the contact points enters the speed of approach, so a
+    floating body it meets leaves with its speed along the contact's normal (a piston
+    pushes a box ahead of it)."""
+
+    mass = math.inf
+    friction = math.inf  # a contact takes the floating body's coefficient
+
+    def __init__(self, motion, centre, points, shapes):
+        self.motion, self.c0 = motion, np.asarray(centre, dtype=float)
+        self.dim = self.c0.size
+        self.points = np.asarray(points, dtype=float) - self.c0[:, None]
+        self.pieces = list(shapes)
+        self.free_t = np.zeros(self.dim)
+        self.at(0.0)
+
+    def at(self, t):
+        """The obstacle where its motion has it at time t."""
+        d, R, self.u, self.omega, self.du, self.alpha = self.motion.pose(t)
+        self.c = self.c0 + np.asarray(d, dtype=float)
+        self.u, self.du = np.asarray(self.u, dtype=float), np.asarray(self.du, dtype=float)
+        if self.dim == 2:
+            self.theta = math.atan2(R[1][0], R[0][0])
+        else:
+            self.R = np.asarray(R, dtype=float)
+        return self
+
+    def shapes(self):
+        return self.pieces
+
+    def _responses(self, n, r):
+        """No speed from an impulse: (0, 0, the arms r x n)."""
+        arms = r[0] * n[1] - r[1] * n[0] if self.dim == 2 else np.cross(r.T, n)
+        return np.zeros(self.dim), np.zeros_like(arms), arms
+
+
+def driven_obstacles(case, bodies, points, body):
+    """The obstacle boxes and closed polygons on a prescribed path (``motion``) as ``Driven``
+    sides of a floating body's contacts: a box as its faces, a convex polygon as its faces,
+    a concave one as its convex pieces, each about the centre its motion turns it about;
+    ``points`` (dim, n) the wall points at rest and ``body`` their bodies. A moving
+    ``[[walls]]`` mesh or particle file meets a floating body through the fluid alone."""
+    from ..case.config import _wall_sources
+
+    out = []
+    for b, (key, table) in enumerate(_wall_sources(case)):
+        if table.get("motion") is None or table.get("floating") is not None or bodies.motions[b] is None:
+            continue
+        c = np.asarray(bodies.centres[b], dtype=float)
+        if key.startswith("obstacle") and table.get("min") is not None:
+            shapes = [box_faces(np.asarray(table["min"]) - c, np.asarray(table["max"]) - c)]
+        elif key.startswith("polygon") and table["closed"]:
+            pts = np.asarray(table["points"], dtype=float).T - c[:, None]
+            faces = convex_faces(pts - pts.mean(axis=1)[:, None])
+            if faces is not None:
+                N, o = faces
+                shapes = [(N, o + N @ pts.mean(axis=1))]
+            else:
+                shapes = convex_pieces(pts) or []
+        else:
+            continue
+        out.append(Driven(bodies.motions[b], c, points[:, body == b], shapes))
+    return out
 
 
 def fixed_blocks(case, meshes=()):

@@ -255,6 +255,9 @@ class Bodies:
             else:
                 self.centres.append(pts.mean(axis=1) if pts.shape[1] else np.zeros(dim))
         self.moving = any(m is not None for m in self.motions)
+        #: the obstacles on a prescribed path a floating body meets (``floating.Driven``; set up
+        #: with the floating bodies' contacts)
+        self.driven = []
         # what ``bounds`` needs: each body's box at rest (middle, half-widths), and the box of
         # the points of the bodies that do not move
         self.boxes = [((p.min(axis=1) + p.max(axis=1)) / 2, (p.max(axis=1) - p.min(axis=1)) / 2) if p.shape[1]

@@ -12,7 +12,7 @@ from ..backends.grid import Grid
 from ..physics.integrators import INTEGRATORS, SPEC_SCHEMES
 from ..physics.kernels import SUPPORT, kernel_numpy, kernel_params, smoothing_length
 from ..models.wcsph import WCSPH
-from ..boundaries.floating import fixed_blocks, tank_planes
+from ..boundaries.floating import driven_obstacles, fixed_blocks, tank_planes
 from ..boundaries.motion import Bodies
 from ..boundaries.open_boundary import OpenBoundaries
 from ..backends.particles import ParticleSet
@@ -92,6 +92,8 @@ def build(case, backend, comm):
     blocks = fixed_blocks(case, _fixed_meshes(case)) if bodies.floating else []  # the fixed obstacles it stays out of
     for b, f in bodies.floating.items():
         f.meet(wall0["x"][:, body == b], planes, blocks)
+    # the obstacles on a prescribed path a floating body meets (``floating.Driven``)
+    bodies.driven = driven_obstacles(case, bodies, wall0["x"], body) if bodies.floating else []
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
     walls.add("v", "vector", dtype, be)
     walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)
