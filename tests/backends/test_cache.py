@@ -205,3 +205,19 @@ def test_a_cache_that_cannot_be_written_leaves_the_loop_running(tmp_path, monkey
     assert np.array_equal(out, 2.0 * a)
     assert sum(run.stats.cache_misses.values()) == 1  # compiled here, as without a cache
     assert not [p for p in tmp_path.rglob("*") if p.suffix in (".nbi", ".nbc")]
+
+
+def test_closures_compiled_in_two_processes_keep_their_own_code_when_loaded_in_one(tmp_path):
+    """The 2D and the 3D wall placement (two closures of ``make_place``, one argument type)
+    compiled by two processes into one cache, then both loaded by a third, in either order:
+    each places its points, and the 2D one writes no third row. Numba named each closure's
+    code by a per-process counter, which the two compiling processes gave alike; the third
+    linked both under one name and ran one for the other (measured: the 2D placement wrong
+    and the heap corrupted when the 3D loaded first; the 3D one leaving its third row
+    unwritten when the 2D did). Now a closure's name comes from its code and cells
+    (``numba_cache._content_id``)."""
+    script = os.path.join(os.path.dirname(__file__), "place_closures.py")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    for dims in (["2"], ["3"], ["3", "2"], ["2", "3"]):
+        r = subprocess.run([sys.executable, script, *dims], capture_output=True, text=True, env=env, timeout=600)
+        assert r.returncode == 0 and "WRONG" not in r.stdout, (dims, r.stdout, r.stderr[-2000:])

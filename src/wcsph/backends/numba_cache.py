@@ -22,11 +22,26 @@ is compiled again and the index rewritten. A save that fails (a full disk, a cac
 that went read-only during the run) is skipped: the loop runs as compiled, and the next
 process compiles it again; Numba's own save raised out of the run's first step.
 
+**Names.** Numba names a compiled function after its qualified name and a number from a
+counter of the process (``FunctionIdentity.unique_id``), and the machine code it caches keeps
+those names. The closures of one factory (``make_place(dim, normals)``, the loops of
+``make_map``) share a qualified name and, for one argument type, differ only in that
+number: two processes that compiled two of them (the 2D and the 3D wall placement) could
+give both the same number, and a process that loaded both from the cache (the test suite,
+``wcsph validate``: 2D and 3D cases in one process) linked both definitions under one name,
+and one of them ran for the other (seen as the 3D placement writing a third row into a 2D
+set: a heap corrupted, a run stopped with a false message or hung). Here a closure's number
+is made from what it is: its code and the contents of its cells (``_content_id``), the same
+in every process for the same closure and different for different ones; a function without
+a closure, or whose cells cannot be pickled, keeps Numba's counter.
+
 **Compiled or loaded.** A cached ``parallel=True, fastmath=True`` loop ran other machine code
 in the process that compiled it than in every process that loaded it (``saved_first``): a
 restart, or a second run in one process, was then not bit for bit the run before it.
 """
+import hashlib
 import itertools
+import marshal
 from contextlib import contextmanager
 from functools import cached_property
 
@@ -60,7 +75,49 @@ def _locked(index_path, exclusive):
             f.close()  # releases the lock
 
 
+def _content_id(func):
+    """A number for a closure from its code and its cells' contents (None when it has no
+    closure or they cannot be pickled): equal closures get equal numbers in every process."""
+    closure = getattr(func, "__closure__", None)
+    if not closure:
+        return None
+    try:
+        from numba.core.serialize import dumps
+
+        cells = dumps(tuple(c.cell_contents for c in closure))
+        code = marshal.dumps(func.__code__)
+    except Exception:  # an unpicklable cell, an empty one: Numba's counter
+        return None
+    return int(hashlib.sha256(code + cells).hexdigest()[:15], 16)
+
+
+def _name_closures_by_content():
+    try:
+        from numba.core.bytecode import FunctionIdentity
+    except ImportError:
+        return
+    made = FunctionIdentity.from_function.__func__
+    if getattr(made, "_wcsph_named", False):
+        return
+
+    def from_function(cls, pyfunc):
+        self = made(cls, pyfunc)
+        uid = _content_id(self.func)
+        if uid is not None:
+            self.unique_id = uid
+            self.unique_name = f"{self.func_qualname}${uid}"
+        return self
+
+    def derive(self):  # a copy that must differ (a lifted loop): Numba's counter, as before
+        return made(type(self), self.func)
+
+    from_function._wcsph_named = True
+    FunctionIdentity.from_function = classmethod(from_function)
+    FunctionIdentity.derive = derive
+
+
 def install():
+    _name_closures_by_content()
     try:
         from numba.core.caching import IndexDataCacheFile
     except ImportError:  # a Numba without this class: nothing to guard

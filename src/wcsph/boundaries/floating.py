@@ -74,7 +74,8 @@ surface, up to
 closed polygon on a prescribed path (``Driven``) is the other side of such a contact with an
 infinite mass: the push is all the floating body's, and the impulses take out the speed at
 which the body approaches the obstacle's moving surface (a piston pushes a box ahead of it
-at its own speed). A moving wall mesh or particle file meets a body through the fluid alone.
+at its own speed); a closed wall mesh on a path likewise. A moving particle file meets a body
+through the fluid alone.
 """
 import math
 
@@ -1108,12 +1109,14 @@ class Driven:
         return np.zeros(self.dim), np.zeros_like(arms), arms
 
 
-def driven_obstacles(case, bodies, points, body):
-    """The obstacle boxes and closed polygons on a prescribed path (``motion``) as ``Driven``
-    sides of a floating body's contacts: a box as its faces, a convex polygon as its faces,
-    a concave one as its convex pieces, each about the centre its motion turns it about;
-    ``points`` (dim, n) the wall points at rest and ``body`` their bodies. A moving
-    ``[[walls]]`` mesh or particle file meets a floating body through the fluid alone."""
+def driven_obstacles(case, bodies, points, body, meshes=None):
+    """The obstacle boxes, closed polygons and closed wall meshes on a prescribed path
+    (``motion``) as ``Driven`` sides of a floating body's contacts: a box as its faces, a
+    polygon or mesh as ``mesh_shapes`` has it (a convex one as its faces, a concave one as
+    its pieces or itself), each about the centre its motion turns it about; ``points``
+    (dim, n) the wall points at rest and ``body`` their bodies; ``meshes``: {key
+    ("walls[k]"): (vertices, faces)} of the moving meshes. A particle file meets a floating
+    body through the fluid alone."""
     from ..case.config import _wall_sources
 
     out = []
@@ -1121,7 +1124,10 @@ def driven_obstacles(case, bodies, points, body):
         if table.get("motion") is None or table.get("floating") is not None or bodies.motions[b] is None:
             continue
         c = np.asarray(bodies.centres[b], dtype=float)
-        if key.startswith("obstacle") and table.get("min") is not None:
+        if meshes and key in meshes:
+            verts, faces = meshes[key]
+            shapes = mesh_shapes(np.asarray(verts, dtype=float) - c[:, None], faces)
+        elif key.startswith("obstacle") and table.get("min") is not None:
             shapes = [box_faces(np.asarray(table["min"]) - c, np.asarray(table["max"]) - c)]
         elif key.startswith("polygon") and table["closed"]:
             pts = np.asarray(table["points"], dtype=float).T - c[:, None]
@@ -1137,6 +1143,28 @@ def driven_obstacles(case, bodies, points, body):
     return out
 
 
+def mesh_shapes(verts, faces):
+    """The shapes a floating body stays out of for a closed wall mesh, in its vertices'
+    coordinates: a convex one as its faces ((N, o), inside where N x < o), a concave 3D one
+    as itself (``MeshShape``), a concave 2D outline as its convex pieces; none for a 2D
+    outline that is not one closed loop."""
+    v = np.asarray(verts, dtype=float)
+    centre = v.mean(axis=1)
+    if v.shape[0] == 2:
+        order = _outline(np.asarray(faces))
+        if order is None:
+            return []
+        v = v[:, order]
+        hull = convex_faces(v - centre[:, None])
+    else:
+        hull = convex_faces(v - centre[:, None], faces)
+    if hull is not None:
+        return [(hull[0], hull[1] + hull[0] @ centre)]
+    if v.shape[0] == 2:
+        return convex_pieces(v) or []
+    return [MeshShape(v, faces)]
+
+
 def fixed_blocks(case, meshes=()):
     """The obstacles a floating body stays out of: the case's obstacle boxes and closed
     polygons that neither float nor move, as (N, o) half-spaces (inside where N x < o), a
@@ -1146,22 +1174,7 @@ def fixed_blocks(case, meshes=()):
     pieces (a particle file: through the fluid alone)."""
     out = []
     for verts, faces in meshes:
-        v = np.asarray(verts, dtype=float)
-        centre = v.mean(axis=1)
-        if v.shape[0] == 2:
-            order = _outline(np.asarray(faces))
-            if order is None:
-                continue
-            v = v[:, order]
-            hull = convex_faces(v - centre[:, None])
-        else:
-            hull = convex_faces(v - centre[:, None], faces)
-        if hull is not None:
-            out.append((hull[0], hull[1] + hull[0] @ centre))
-        elif v.shape[0] == 2:
-            out.extend(convex_pieces(v) or [])
-        else:
-            out.append(MeshShape(v, faces))
+        out.extend(mesh_shapes(verts, faces))
     for b in case["obstacle"]:
         if b.get("min") is not None and b.get("floating") is None and b.get("motion") is None:
             out.append(box_faces(b["min"], b["max"]))

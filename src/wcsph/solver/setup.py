@@ -89,11 +89,11 @@ def build(case, backend, comm):
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,
                     _floating_bodies(case), float(np.linalg.norm(case["physics"]["gravity"])))
     planes = tank_planes(case["tank"], dim)  # the faces a floating body meets
-    blocks = fixed_blocks(case, _fixed_meshes(case)) if bodies.floating else []  # the fixed obstacles it stays out of
+    blocks = fixed_blocks(case, _meshes(case).values()) if bodies.floating else []  # the fixed obstacles it stays out of
     for b, f in bodies.floating.items():
         f.meet(wall0["x"][:, body == b], planes, blocks)
     # the obstacles on a prescribed path a floating body meets (``floating.Driven``)
-    bodies.driven = driven_obstacles(case, bodies, wall0["x"], body) if bodies.floating else []
+    bodies.driven = driven_obstacles(case, bodies, wall0["x"], body, _meshes(case, moving=True)) if bodies.floating else []
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
     walls.add("v", "vector", dtype, be)
     walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)
@@ -220,12 +220,14 @@ def _floating_bodies(case):
     return out
 
 
-def _fixed_meshes(case):
-    """(vertices, faces) of the case's closed wall meshes that neither float nor move."""
+def _meshes(case, moving=False):
+    """{"walls[k]": (vertices, faces)} of the case's wall meshes that do not float and are
+    fixed (or, with ``moving``, on a prescribed path)."""
     from ..io.readers import read_surface
 
-    return [read_surface(Path(case["_source"]).parent / w["mesh"], case["dim"]) for w in case["walls"]
-            if w.get("mesh") and w.get("floating") is None and w.get("motion") is None]
+    return {f"walls[{k}]": read_surface(Path(case["_source"]).parent / w["mesh"], case["dim"])
+            for k, w in enumerate(case["walls"])
+            if w.get("mesh") and w.get("floating") is None and (w.get("motion") is not None) == moving}
 
 
 def _decomposition(case, comm, grid, be, occupied, opened):
