@@ -86,8 +86,8 @@ def record(case, steps=2):
 
     placed = {}
 
-    def sort(self, pset, grid, drop=None, refresh=None):
-        dropped = originals["sort"](self, pset, grid, drop, refresh)
+    def sort(self, pset, grid, drop=None, refresh=None, inside=False):
+        dropped = originals["sort"](self, pset, grid, drop, refresh, inside)
         if refresh is not None and "sort" not in placed:  # the launch that moves the fields and makes p, V
             fn, _, view, P = refresh
             placed["sort"] = {"kind": "sort", "build": lambda: _PlaceThen(fn, type(P)),
