@@ -1109,18 +1109,17 @@ class Driven:
         return np.zeros(self.dim), np.zeros_like(arms), arms
 
 
-def driven_obstacles(case, bodies, points, body, meshes=None):
+def driven_obstacles(sources, bodies, points, body, meshes=None):
     """The obstacle boxes, closed polygons and closed wall meshes on a prescribed path
     (``motion``) as ``Driven`` sides of a floating body's contacts: a box as its faces, a
     polygon or mesh as ``mesh_shapes`` has it (a convex one as its faces, a concave one as
     its pieces or itself), each about the centre its motion turns it about; ``points``
-    (dim, n) the wall points at rest and ``body`` their bodies; ``meshes``: {key
-    ("walls[k]"): (vertices, faces)} of the moving meshes. A particle file meets a floating
-    body through the fluid alone."""
-    from ..case.config import _wall_sources
-
+    (dim, n) the wall points at rest and ``body`` their bodies; ``sources``: (key, table) of
+    each wall source in the bodies' order (``case.config``'s); ``meshes``: {key ("walls[k]"):
+    (vertices, faces)} of the moving meshes. A particle file meets a floating body through
+    the fluid alone."""
     out = []
-    for b, (key, table) in enumerate(_wall_sources(case)):
+    for b, (key, table) in enumerate(sources):
         if table.get("motion") is None or table.get("floating") is not None or bodies.motions[b] is None:
             continue
         c = np.asarray(bodies.centres[b], dtype=float)

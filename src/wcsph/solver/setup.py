@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from ..case import geometry
+from ..case.config import _wall_sources
 from . import parallel
 from ..errors import CaseError
 from ..backends.grid import Grid
@@ -93,7 +94,8 @@ def build(case, backend, comm):
     for b, f in bodies.floating.items():
         f.meet(wall0["x"][:, body == b], planes, blocks)
     # the obstacles on a prescribed path a floating body meets (``floating.Driven``)
-    bodies.driven = driven_obstacles(case, bodies, wall0["x"], body, _meshes(case, moving=True)) if bodies.floating else []
+    bodies.driven = (driven_obstacles(_wall_sources(case), bodies, wall0["x"], body, _meshes(case, moving=True))
+                     if bodies.floating else [])
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
     walls.add("v", "vector", dtype, be)
     walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)
