@@ -1091,9 +1091,9 @@ class Driven:
 
     def at(self, t):
         """The obstacle where its motion has it at time t."""
-        d, R, self.u, self.omega, self.du, self.alpha = self.motion.pose(t)
+        d, R, u, self.omega, du, self.alpha = self.motion.pose(t)
         self.c = self.c0 + np.asarray(d, dtype=float)
-        self.u, self.du = np.asarray(self.u, dtype=float), np.asarray(self.du, dtype=float)
+        self.u, self.du = np.asarray(u, dtype=float), np.asarray(du, dtype=float)
         if self.dim == 2:
             self.theta = math.atan2(R[1][0], R[0][0])
         else:
@@ -1129,38 +1129,37 @@ def driven_obstacles(sources, bodies, points, body, meshes=None):
         elif key.startswith("obstacle") and table.get("min") is not None:
             shapes = [box_faces(np.asarray(table["min"]) - c, np.asarray(table["max"]) - c)]
         elif key.startswith("polygon") and table["closed"]:
-            pts = np.asarray(table["points"], dtype=float).T - c[:, None]
-            faces = convex_faces(pts - pts.mean(axis=1)[:, None])
-            if faces is not None:
-                N, o = faces
-                shapes = [(N, o + N @ pts.mean(axis=1))]
-            else:
-                shapes = convex_pieces(pts) or []
+            shapes = polygon_shapes(np.asarray(table["points"], dtype=float).T - c[:, None])
         else:
             continue
         out.append(Driven(bodies.motions[b], c, points[:, body == b], shapes))
     return out
 
 
+def polygon_shapes(pts):
+    """The shapes a floating body stays out of for a closed polygon ``pts`` (2, V, in order),
+    in its points' coordinates: a convex one as its faces ((N, o), inside where N x < o), a
+    concave one as its convex pieces, pushed out through its own edges only."""
+    centre = pts.mean(axis=1)
+    faces = convex_faces(pts - centre[:, None])
+    if faces is not None:
+        N, o = faces
+        return [(N, o + N @ centre)]
+    return convex_pieces(pts) or []
+
+
 def mesh_shapes(verts, faces):
     """The shapes a floating body stays out of for a closed wall mesh, in its vertices'
-    coordinates: a convex one as its faces ((N, o), inside where N x < o), a concave 3D one
-    as itself (``MeshShape``), a concave 2D outline as its convex pieces; none for a 2D
-    outline that is not one closed loop."""
+    coordinates: a 2D outline as ``polygon_shapes`` (none when it is not one closed loop), a
+    convex 3D one as its faces, a concave one as itself (``MeshShape``)."""
     v = np.asarray(verts, dtype=float)
-    centre = v.mean(axis=1)
     if v.shape[0] == 2:
         order = _outline(np.asarray(faces))
-        if order is None:
-            return []
-        v = v[:, order]
-        hull = convex_faces(v - centre[:, None])
-    else:
-        hull = convex_faces(v - centre[:, None], faces)
+        return [] if order is None else polygon_shapes(v[:, order])
+    centre = v.mean(axis=1)
+    hull = convex_faces(v - centre[:, None], faces)
     if hull is not None:
         return [(hull[0], hull[1] + hull[0] @ centre)]
-    if v.shape[0] == 2:
-        return convex_pieces(v) or []
     return [MeshShape(v, faces)]
 
 
@@ -1179,12 +1178,5 @@ def fixed_blocks(case, meshes=()):
             out.append(box_faces(b["min"], b["max"]))
     for b in case.get("polygon", []):
         if b["closed"] and b.get("floating") is None and b.get("motion") is None:
-            pts = np.asarray(b["points"], dtype=float).T
-            centre = pts.mean(axis=1)
-            faces = convex_faces(pts - centre[:, None])
-            if faces is not None:
-                N, o = faces
-                out.append((N, o + N @ centre))
-            else:  # a concave polygon: its convex pieces, pushed out through its own edges only
-                out.extend(convex_pieces(pts) or [])
+            out.extend(polygon_shapes(np.asarray(b["points"], dtype=float).T))
     return out
