@@ -1080,3 +1080,83 @@ def test_a_box_pushed_by_a_moving_3d_wall_mesh_stays_out_of_it(tmp_path):
     assert float(last["box_x"]) - 0.1 == pytest.approx(0.45 + 0.5 * t, abs=1e-9)
     assert float(last["box_vx"]) == pytest.approx(0.5, abs=1e-9)
     assert float(last["box_z"]) == pytest.approx(0.1, abs=1e-9)
+
+
+def _box_mesh(path, lo, hi):
+    """A closed STL box [lo, hi]."""
+    import meshio
+
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+    tri = np.array([t for q in quads for t in ([q[0], q[1], q[2]], [q[0], q[2], q[3]])])
+    meshio.write(path, meshio.Mesh(corners, [("triangle", tri)]))
+    return str(path)
+
+
+def test_a_box_dropped_in_a_tank_mesh_lands_on_its_floor(tmp_path):
+    """The tank as a closed wall mesh with the fluid inside (``fluid_side = "inside"``, a
+    1 m cube) and a floating box dropped in it: the box stays where it was across and lands
+    on the mesh's floor (at rest, its bottom on the floor within 1e-9 m). Before the change
+    the mesh was taken for an obstacle the box had to leave: at the first step the box was
+    thrown 0.6 m sideways, out of the tank through its wall."""
+    case = _free_fall_case(3)
+    case.pop("tank")
+    case["domain"] = {"min": [-0.2] * 3, "max": [1.2] * 3}
+    case["walls"] = [{"mesh": _box_mesh(tmp_path / "tank.stl", [0.0] * 3, [1.0] * 3), "fluid_side": "inside"}]
+    case["fluid"] = [{"min": [0.85, 0.0, 0.0], "max": [1.0, 1.0, 0.1]}]
+    case["obstacle"].append({"min": [0.75, 0.0, 0.0], "max": [0.8, 1.0, 0.3]})  # a dam: no water under the box
+    case["obstacle"][0].update(min=[0.4, 0.4, 0.5], max=[0.6, 0.6, 0.7])
+    case["time"]["end"] = 0.5
+    wcsph.run(case, output=tmp_path / "out", progress=False)
+    last = list(csv.DictReader(open(tmp_path / "out" / "probes.csv")))[-1]
+    assert float(last["box_x"]) == pytest.approx(0.5, abs=1e-9) and float(last["box_y"]) == pytest.approx(0.5, abs=1e-9)
+    assert float(last["box_z"]) - 0.1 == pytest.approx(0.0, abs=1e-9)
+    assert abs(float(last["box_vz"])) < 1e-12
+
+
+def test_a_moving_tank_pushes_the_box_inside_it(tmp_path):
+    """The tank on a prescribed path (0.5 m/s along x, 2D) with a floating box resting on its
+    frictionless floor 0.2 m from its left wall: from 0.4 s the wall pushes the box ahead of
+    it, face on face within 1e-9 m, at the tank's speed. Before the change the box was held
+    inside the tank's faces at rest, and the moving wall passed through it."""
+    case = _free_fall_case(2)
+    case["domain"] = {"min": [-0.1, -0.1], "max": [3.0, 2.1]}
+    case["tank"]["motion"] = {"kind": "velocity", "velocity": [0.5, 0.0]}
+    case["fluid"] = [{"min": [1.8, 0.0], "max": [2.0, 0.2]}]
+    case["obstacle"].append({"min": [1.65, 0.0], "max": [1.75, 0.5], "motion": {"kind": "velocity", "velocity": [0.5, 0.0]}})
+    case["obstacle"][0].update(min=[0.2, 0.0], max=[0.4, 0.2])
+    case["time"]["end"] = 0.6
+    wcsph.run(case, output=tmp_path, progress=False)
+    last = list(csv.DictReader(open(tmp_path / "probes.csv")))[-1]
+    t = float(last["time"])
+    assert float(last["box_x"]) - 0.1 == pytest.approx(0.5 * t, abs=1e-9)
+    assert float(last["box_vx"]) == pytest.approx(0.5, abs=1e-9)
+    assert float(last["box_y"]) == pytest.approx(0.1, abs=1e-9)
+
+
+@pytest.mark.parametrize("source", ["file", "polyline"])
+def test_a_box_dropped_on_a_wall_of_points_rests_on_it(source, tmp_path):
+    """A shelf at y = 0.6 m across 0.3-0.7 m, as a wall particle file or an open polygon,
+    under the dropped box: the box rests on the shelf's points (its bottom on them within
+    1e-9 m, at rest) instead of falling through to the floor. A wall with no shape meets a
+    body by its points, which the body's faces hold out."""
+    import meshio
+
+    xs = 0.3 + 0.05 * np.arange(9)
+    if source == "file":
+        pts = np.column_stack([xs, np.full(9, 0.6), np.zeros(9)])
+        meshio.write(tmp_path / "shelf.vtk", meshio.Mesh(pts, [("vertex", np.arange(9)[:, None])], point_data={
+            "normals": np.tile([0.0, 1.0, 0.0], (9, 1)), "elementSize": np.full(9, 0.05)}))
+        extra = {"walls": [{"file": str(tmp_path / "shelf.vtk")}]}
+    else:
+        extra = {"polygon": [{"points": [[0.7, 0.6], [0.3, 0.6]]}]}
+    case = _free_fall_case(2)
+    case["time"]["end"] = 0.7
+    case["fluid"] = [{"min": [1.8, 0.0], "max": [2.0, 0.2]}]
+    case["obstacle"].append({"min": [1.65, 0.0], "max": [1.75, 0.5]})
+    case["obstacle"][0].update(min=[0.4, 1.2], max=[0.6, 1.4])
+    case.update(extra)
+    wcsph.run(case, output=tmp_path / "out", progress=False)
+    last = list(csv.DictReader(open(tmp_path / "out" / "probes.csv")))[-1]
+    assert float(last["box_y"]) - 0.1 - 0.6 == pytest.approx(0.0, abs=1e-9)
+    assert abs(float(last["box_vy"])) < 1e-12 and float(last["box_x"]) == pytest.approx(0.5, abs=1e-9)

@@ -74,8 +74,12 @@ surface, up to
 closed polygon on a prescribed path (``Driven``) is the other side of such a contact with an
 infinite mass: the push is all the floating body's, and the impulses take out the speed at
 which the body approaches the obstacle's moving surface (a piston pushes a box ahead of it
-at its own speed); a closed wall mesh on a path likewise. A moving particle file meets a body
-through the fluid alone.
+at its own speed); a closed wall mesh on a path likewise. A container on a path (the tank box
+moving, a convex closed wall mesh with the fluid inside, fixed or moving) holds a body inside
+its faces the same way, the impulses taking out the speed at which the body approaches the
+moving face. Every other wall (a wall particle file, an open polygon, a concave container
+mesh), fixed or on a path, holds a body out by its wall points: a point inside one of the
+body's shapes pushes it out as a point of another body would (``Driven`` with no shapes).
 """
 import math
 
@@ -190,6 +194,7 @@ class FloatingBody:
         self.springs = [Spring(sp, self.c0, dim) for sp in springs]
         self.tensions = [0.0] * len(self.springs)  # at the last step, for probes.csv
         self.points = np.zeros((dim, 0))  # the wall points about c0 (contact), set by ``meet``
+        self.reach = 0.0  # the radius about c beyond which nothing is inside it (``meet``)
         self.planes = []  # (n, o): the tank's faces, inside where n . x >= o
         self.blocks = []  # (N, o): fixed convex obstacles the body stays out of, inside where N x < o
         self.box = None  # (lo, hi) about c0 in the body's frame, when the body is an obstacle box
@@ -202,9 +207,17 @@ class FloatingBody:
         must stay out of (``fixed_blocks``, ``box_faces``: (N, o) half-spaces, inside where
         N x < o)."""
         self.points = np.asarray(points, dtype=float) - self.c0[:, None]
+        # beyond this distance from its centre no point is inside any of its shapes (which its
+        # wall points line, within a spacing)
+        self.reach = 2.0 * float(np.max(np.linalg.norm(self.points, axis=0))) if self.points.shape[1] else 0.0
         self.planes = [(np.asarray(n, dtype=float), float(o)) for n, o in planes]
         self.blocks = [b if isinstance(b, MeshShape) else
                        (np.asarray(b[0], dtype=float), np.asarray(b[1], dtype=float)) + tuple(b[2:]) for b in blocks]
+
+    def wall_points(self):
+        """Its wall points where it is now (dim, K)."""
+        R = self.R if self.dim == 3 else _rot2(self.theta)
+        return self.c[:, None] + R @ self.points
 
     def pose(self, t):
         """(d, R, u, omega, du, alpha): the centre's displacement from where it started, the
@@ -741,13 +754,18 @@ def collide(a, b):
     inelastic: momentum and angular momentum kept; friction as ``contact_impulses``). Returns
     whether they touched."""
     touched = False
+    for p, q in ((a, b), (b, a)):
+        touched = _keep_inside(p, q) or touched
     for p, q, shape in [(p, q, s) for p, q in ((a, b), (b, a)) for s in q.shapes()]:
         if not p.points.shape[1]:
             continue
         for _ in range(_passes(shape)):
-            Rp = p.R if p.dim == 3 else _rot2(p.theta)
             Rq = q.R if q.dim == 3 else _rot2(q.theta)
-            x = p.c[:, None] + Rp @ p.points
+            x = p.wall_points()
+            if q.reach is not None:  # only the points near q can be inside it (a long wall's few)
+                x = x[:, np.sum((x - q.c[:, None]) ** 2, axis=0) <= q.reach * q.reach]
+                if not x.shape[1]:
+                    break
             y = Rq.T @ (x - q.c[:, None])  # p's points in q's frame
             hit = _hit(shape, y)
             if hit is None:
@@ -763,6 +781,35 @@ def collide(a, b):
             contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])],
                              min(p.friction, q.friction))
             touched = True
+    return touched
+
+
+def _keep_inside(p, q):
+    """Body p's wall points back inside the faces of the container q (``Driven.container``):
+    the deepest point past a face puts p back on it (along p's free axes; q does not move),
+    then impulses along the face's normal through the contact points take out the speed at
+    which p approaches the face, which moves with q. Returns whether p touched a face."""
+    faces = getattr(q, "container", ())
+    if not faces or not p.points.shape[1] or not np.isfinite(p.mass):
+        return False
+    Rq = q.R if q.dim == 3 else _rot2(q.theta)
+    touched = False
+    for n0, o0 in faces:
+        n = Rq @ n0
+        o = o0 + float(n @ q.c)  # inside where n . x >= o
+        x = p.wall_points()
+        past = (o - n @ x) > 0.0
+        if not past.any():
+            continue
+        m = n * p.free_t
+        if not m @ n > 0.0:
+            continue  # p cannot move off this face (its axis is held)
+        depth = float(np.max(o - n @ x[:, past]))
+        points = p.c[:, None] + _extremes(x[:, past] - p.c[:, None], n)  # the contact points
+        p.c = p.c + depth / float(m @ n) * m
+        contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])],
+                         min(p.friction, q.friction))
+        touched = True
     return touched
 
 
@@ -1070,35 +1117,56 @@ class MeshShape:
         return inside, float(d[k]), (q[:, k] - y[:, idx[k]]) / d[k]
 
 
+class Still:
+    """The motion of a wall that does not move (``Driven`` of a fixed wall)."""
+
+    def __init__(self, dim):
+        self.dim = dim
+
+    def pose(self, t):
+        zero = np.zeros(3) if self.dim == 3 else 0.0
+        return np.zeros(self.dim), np.eye(self.dim), np.zeros(self.dim), zero, np.zeros(self.dim), zero
+
+
 class Driven:
-    """An obstacle on a prescribed path as the other side of a contact with a floating body
-    (``collide``): its shapes and wall points in its own frame about its centre, placed by
-    its motion at the contact's time (``at``); it takes no push and no impulse (an infinite
+    """A wall, on a prescribed path or fixed (``Still``), as the other side of a contact with
+    a floating body (``collide``): its shapes (that a body stays out of), its ``container``
+    faces (that a body stays inside of: (n, o), inside where n . y >= o) and its wall points
+    (that stay out of a body's shapes), in its own frame about its centre, placed by its
+    motion at the contact's time (``at``); it takes no push and no impulse (an infinite
     mass), and its velocity at the contact points enters the speed of approach, so a
     floating body it meets leaves with its speed along the contact's normal (a piston
     pushes a box ahead of it)."""
 
     mass = math.inf
     friction = math.inf  # a contact takes the floating body's coefficient
+    reach = None  # no cull of the points that enter it: a floating body's few
 
-    def __init__(self, motion, centre, points, shapes):
+    def __init__(self, motion, centre, points, shapes, container=()):
         self.motion, self.c0 = motion, np.asarray(centre, dtype=float)
         self.dim = self.c0.size
-        self.points = np.asarray(points, dtype=float) - self.c0[:, None]
+        self.points = np.asarray(points, dtype=float).reshape(self.dim, -1) - self.c0[:, None]
         self.pieces = list(shapes)
+        self.container = [(np.asarray(n, dtype=float), float(o)) for n, o in container]
         self.free_t = np.zeros(self.dim)
         self.at(0.0)
 
     def at(self, t):
-        """The obstacle where its motion has it at time t."""
+        """The wall where its motion has it at time t."""
         d, R, u, self.omega, du, self.alpha = self.motion.pose(t)
         self.c = self.c0 + np.asarray(d, dtype=float)
         self.u, self.du = np.asarray(u, dtype=float), np.asarray(du, dtype=float)
+        R = np.asarray(R, dtype=float)
         if self.dim == 2:
             self.theta = math.atan2(R[1][0], R[0][0])
         else:
-            self.R = np.asarray(R, dtype=float)
+            self.R = R
+        self._x = self.c[:, None] + R @ self.points
         return self
+
+    def wall_points(self):
+        """Its wall points where ``at`` put them (dim, K)."""
+        return self._x
 
     def shapes(self):
         return self.pieces
@@ -1110,42 +1178,79 @@ class Driven:
 
 
 def driven_obstacles(sources, bodies, points, body, meshes=None):
-    """The obstacle boxes, closed polygons and closed wall meshes on a prescribed path
-    (``motion``) as ``Driven`` sides of a floating body's contacts: a box as its faces, a
-    polygon or mesh as ``mesh_shapes`` has it (a convex one as its faces, a concave one as
-    its pieces or itself), each about the centre its motion turns it about; ``points``
-    (dim, n) the wall points at rest and ``body`` their bodies; ``sources``: (key, table) of
-    each wall source in the bodies' order (``case.config``'s); ``meshes``: {key ("walls[k]"):
-    (vertices, faces)} of the moving meshes. A particle file meets a floating body through
-    the fluid alone."""
+    """The walls a floating body meets other than the fixed tank's faces (``tank_planes``) and
+    the fixed obstacles it stays out of (``fixed_blocks``), as ``Driven`` sides of its
+    contacts, each about the centre its motion turns it about (a fixed one: ``Still``):
+    - a box, closed polygon or closed wall mesh with the fluid outside, on a prescribed path:
+      its shapes as ``mesh_shapes`` has them (a convex one as its faces, a concave one as its
+      pieces or itself), and its wall points;
+    - the tank on a path, or a convex closed wall mesh with the fluid inside (a container),
+      fixed or on a path: its faces as ``container`` faces;
+    - any other wall (a particle file, an open polygon, a concave container), fixed or on a
+      path: its wall points alone, which a floating body's shapes hold out.
+    ``points`` (dim, n) the wall points at rest and ``body`` their bodies; ``sources``: (key,
+    table) of each wall source in the bodies' order (``case.config``'s); ``meshes``: {key
+    ("walls[k]"): (vertices, faces)} of the wall meshes that do not float."""
+    meshes = meshes or {}
     out = []
     for b, (key, table) in enumerate(sources):
-        if table.get("motion") is None or table.get("floating") is not None or bodies.motions[b] is None:
+        if table.get("floating") is not None:
             continue
+        motion = bodies.motions[b]
         c = np.asarray(bodies.centres[b], dtype=float)
-        if meshes and key in meshes:
-            verts, faces = meshes[key]
-            shapes = mesh_shapes(np.asarray(verts, dtype=float) - c[:, None], faces)
+        own = points[:, body == b]
+        shapes, container = [], []
+        if key == "tank":
+            if motion is None:
+                continue  # its faces are every floating body's own (``tank_planes``)
+            container = [(n, o - float(n @ c)) for n, o in tank_planes(table, c.size)]
+            own = own[:, :0]
+        elif key in meshes:
+            verts, faces = (np.asarray(a) for a in meshes[key])
+            if table.get("fluid_side") == "inside":
+                hull = _hull(verts.astype(float) - c[:, None], faces)
+                if hull is not None:
+                    container = [(-N, -o) for N, o in zip(*hull)]
+                    own = own[:, :0]
+            elif motion is None:
+                continue  # a fixed block (``fixed_blocks``)
+            else:
+                shapes = mesh_shapes(verts.astype(float) - c[:, None], faces)
         elif key.startswith("obstacle") and table.get("min") is not None:
+            if motion is None:
+                continue
             shapes = [box_faces(np.asarray(table["min"]) - c, np.asarray(table["max"]) - c)]
         elif key.startswith("polygon") and table["closed"]:
+            if motion is None:
+                continue
             shapes = polygon_shapes(np.asarray(table["points"], dtype=float).T - c[:, None])
-        else:
+        if not (shapes or container or own.shape[1]):
             continue
-        out.append(Driven(bodies.motions[b], c, points[:, body == b], shapes))
+        out.append(Driven(motion if motion is not None else Still(c.size), c, own, shapes, container))
     return out
+
+
+def _hull(verts, faces=None):
+    """(N, o) of a closed wall outline or mesh (``verts`` (dim, V); ``faces``: 2D segments, or
+    None for vertices in order around; 3D triangles) when it is convex, in its vertices'
+    coordinates (inside where N x < o); None when it is not (or a 2D one is not one closed
+    loop)."""
+    if verts.shape[0] == 2 and faces is not None:
+        order = _outline(np.asarray(faces))
+        if order is None:
+            return None
+        verts, faces = verts[:, order], None
+    centre = verts.mean(axis=1)
+    hull = convex_faces(verts - centre[:, None], faces)
+    return None if hull is None else (hull[0], hull[1] + hull[0] @ centre)
 
 
 def polygon_shapes(pts):
     """The shapes a floating body stays out of for a closed polygon ``pts`` (2, V, in order),
     in its points' coordinates: a convex one as its faces ((N, o), inside where N x < o), a
     concave one as its convex pieces, pushed out through its own edges only."""
-    centre = pts.mean(axis=1)
-    faces = convex_faces(pts - centre[:, None])
-    if faces is not None:
-        N, o = faces
-        return [(N, o + N @ centre)]
-    return convex_pieces(pts) or []
+    hull = _hull(pts)
+    return [hull] if hull is not None else (convex_pieces(pts) or [])
 
 
 def mesh_shapes(verts, faces):
@@ -1156,23 +1261,21 @@ def mesh_shapes(verts, faces):
     if v.shape[0] == 2:
         order = _outline(np.asarray(faces))
         return [] if order is None else polygon_shapes(v[:, order])
-    centre = v.mean(axis=1)
-    hull = convex_faces(v - centre[:, None], faces)
-    if hull is not None:
-        return [(hull[0], hull[1] + hull[0] @ centre)]
-    return [MeshShape(v, faces)]
+    hull = _hull(v, faces)
+    return [hull] if hull is not None else [MeshShape(v, faces)]
 
 
-def fixed_blocks(case, meshes=()):
+def fixed_blocks(case, meshes=None):
     """The obstacles a floating body stays out of: the case's obstacle boxes and closed
     polygons that neither float nor move, as (N, o) half-spaces (inside where N x < o), a
-    concave polygon as its convex pieces (N, o, exposed: ``convex_pieces``); and the closed
-    wall ``meshes`` ((vertices (dim, V), faces) of the fixed ``[[walls]]`` meshes): a convex
-    one as its faces, a concave 3D one as itself (``MeshShape``), a concave 2D outline as its
-    pieces (a particle file: through the fluid alone)."""
+    concave polygon as its convex pieces (N, o, exposed: ``convex_pieces``); and its fixed
+    closed wall meshes with the fluid outside (``meshes``: {"walls[k]": (vertices (dim, V),
+    faces)}): a convex one as its faces, a concave 3D one as itself (``MeshShape``), a concave
+    2D outline as its pieces (a container mesh, a particle file: ``driven_obstacles``)."""
     out = []
-    for verts, faces in meshes:
-        out.extend(mesh_shapes(verts, faces))
+    for k, w in enumerate(case["walls"]):
+        if (meshes or {}).get(f"walls[{k}]") is not None and w.get("motion") is None and w["fluid_side"] == "outside":
+            out.extend(mesh_shapes(*meshes[f"walls[{k}]"]))
     for b in case["obstacle"]:
         if b.get("min") is not None and b.get("floating") is None and b.get("motion") is None:
             out.append(box_faces(b["min"], b["max"]))

@@ -89,13 +89,16 @@ def build(case, backend, comm):
     body = wall0.pop("body")
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,
                     _floating_bodies(case), float(np.linalg.norm(case["physics"]["gravity"])))
-    planes = tank_planes(case["tank"], dim)  # the faces a floating body meets
-    blocks = fixed_blocks(case, _meshes(case).values()) if bodies.floating else []  # the fixed obstacles it stays out of
+    meshes = _meshes(case) if bodies.floating else {}
+    tank = case["tank"]
+    planes = tank_planes(tank, dim) if tank is not None and tank["motion"] is None else []  # the faces a floating body meets
+    # the fixed obstacles it stays out of
+    blocks = fixed_blocks(case, meshes) if bodies.floating else []
     for b, f in bodies.floating.items():
         f.meet(wall0["x"][:, body == b], planes, blocks)
-    # the obstacles on a prescribed path a floating body meets (``floating.Driven``)
-    bodies.driven = (driven_obstacles(_wall_sources(case), bodies, wall0["x"], body, _meshes(case, moving=True))
-                     if bodies.floating else [])
+    # every other wall a floating body meets (``floating.Driven``): on a prescribed path, a
+    # container, a wall of points
+    bodies.driven = driven_obstacles(_wall_sources(case), bodies, wall0["x"], body, meshes) if bodies.floating else []
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
     walls.add("v", "vector", dtype, be)
     walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)
@@ -222,14 +225,12 @@ def _floating_bodies(case):
     return out
 
 
-def _meshes(case, moving=False):
-    """{"walls[k]": (vertices, faces)} of the case's wall meshes that do not float and are
-    fixed (or, with ``moving``, on a prescribed path)."""
+def _meshes(case):
+    """{"walls[k]": (vertices, faces)} of the case's wall meshes that do not float."""
     from ..io.readers import read_surface
 
     return {f"walls[{k}]": read_surface(Path(case["_source"]).parent / w["mesh"], case["dim"])
-            for k, w in enumerate(case["walls"])
-            if w.get("mesh") and w.get("floating") is None and (w.get("motion") is not None) == moving}
+            for k, w in enumerate(case["walls"]) if w.get("mesh") and w.get("floating") is None}
 
 
 def _decomposition(case, comm, grid, be, occupied, opened):
