@@ -48,10 +48,10 @@ FLUID_FIELDS = {
     "dvdt": ("vector", None), "rho": ("scalar", None), "p": ("scalar", None), "pr": ("scalar", None),
     "vol": ("scalar", None), "drhodt": ("scalar", "continuity"), "shepard": ("scalar", "consistent"),
     "L": ("matrix", "corrected"), "corr": ("vector", "after_step"), "rho_corr": ("scalar", "after_step"),
-    "c": ("scalar", "sound"),
+    "c": ("scalar", "sound"), "tau": ("matrix", "stress"),
 }
 #: the flags that add optional fields, in the order the view classes are named by
-_FLAGS = ("continuity", "consistent", "corrected", "after_step", "sound")
+_FLAGS = ("continuity", "consistent", "corrected", "after_step", "sound", "stress")
 
 
 def _fluid_view_name(flags):
@@ -206,7 +206,7 @@ class WCSPH:
         volume = [p for p in declared if isinstance(p, WallVolume)]
         self.volume_pass = mk(dim, dtype, volume[0].init, volume[0].pair, volume[0].store) if volume else None
         self.wall_passes = [(p, mk(dim, dtype, p.init, p.pair, p.store)) for p in declared if isinstance(p, WallPass)]
-        self.fluid_passes = [mk(dim, dtype, p.init, p.fluid, p.store, pair2=p.wall)
+        self.fluid_passes = [(p, mk(dim, dtype, p.init, p.fluid, p.store, pair2=p.wall))
                              for p in declared if isinstance(p, FluidPass)]
         corrections = [p for p in declared if isinstance(p, WallCorrection)]
         self.wall_corrections = [mk(dim, dtype, p.init, p.pair, p.store) for p in corrections]
@@ -261,7 +261,8 @@ class WCSPH:
             (c, mk(dim, dtype, c.init, c.fluid, c.store, pair2=c.wall), backend.make_map(c.apply))
             for c in self.after_step_passes]
         self._placeholders = {}
-        self._flags = (self.continuity, self.consistent, self.corrected, bool(self.after_step_passes), self.needs_c)
+        self._flags = (self.continuity, self.consistent, self.corrected, bool(self.after_step_passes), self.needs_c,
+                       "stress" in implied)
         self.fluid_view = globals()[_fluid_view_name(self._flags)]
         # the smallest wall view with what the walls' terms and passes read
         reads = {f for flag, fields in wall.wall_reads.items() if flag is None or flag in implied for f in fields}
@@ -412,8 +413,10 @@ class WCSPH:
                 halo.fluid(self.exchanged["density"])
         if walls.n:
             w = self._wall_passes(walls, f, w, P, G, halo)
-        for run in self.fluid_passes:
+        for p, run in self.fluid_passes:
             run(f, f, w, P, G)
+            if halo is not None and p.writes:  # a later pass reads it of a neighbour
+                halo.fluid(p.writes)
         if then is None:
             self.interaction(f, f, w, P, G)
         else:

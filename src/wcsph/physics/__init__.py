@@ -75,11 +75,14 @@ class WallPass:
 
 class FluidPass:
     """A pass over the fluid with fluid neighbours (``fluid``) and wall neighbours (``wall``,
-    or None), made before each interaction (CSPM's correction matrix); its store writes a
-    fluid field the interaction reads."""
+    or None), made before each interaction (CSPM's correction matrix, the sub-particle-scale
+    stress); its store writes a fluid field the interaction reads. ``writes``: the fields
+    the interaction reads of a neighbour, which a decomposed run refreshes on its ghosts
+    after the pass (CSPM reads its L of particle i only: none)."""
 
-    def __init__(self, init, fluid, store, wall=None):
+    def __init__(self, init, fluid, store, wall=None, writes=()):
         self.init, self.fluid, self.store, self.wall = init, fluid, store, wall
+        self.writes = tuple(writes)
 
 
 class WallCorrection:

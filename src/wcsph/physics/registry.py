@@ -44,6 +44,7 @@ IMPLIES = {
     "sound": "each particle's sound speed c, for a pair term",
     "pr": "each particle's p / rho^2, for the m_j (p_i/rho_i^2 + p_j/rho_j^2) forms",
     "wall_volume": "the boundary particles' volume V and density rho (not only Psi)",
+    "stress": "each particle's sub-particle-scale stress tensor tau (a pass before each interaction writes it)",
     "speed": "the largest fluid speed of the step before (P.vmax), so a GPU run reads its check every step",
 }
 POS = (lambda v: v > 0, "must be positive")

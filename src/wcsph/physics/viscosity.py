@@ -10,7 +10,10 @@ velocity: the no-slip wall of Morris, Fox & Zhu (1997) and Adami, Hu & Adams (20
 """
 from numba.extending import register_jitable
 
-from .registry import NONNEG, Choice, Param, add, one_of
+import math
+
+from . import FluidPass
+from .registry import NONNEG, POS, Choice, Param, add, one_of
 from .interaction import Terms, add_force
 
 
@@ -109,6 +112,112 @@ def make_boundary_viscosity(ctx, artificial, law="no-slip"):
     return term
 
 
+def make_velocity_gradient(ctx, elements=False):
+    """Pair term of the velocity gradient G_ab = d v_a / d x_b of fluid particle i and its
+    Shepard sum gamma_i (accumulator: G row by row, then gamma). Over fluid neighbours and
+    boundary particles (their velocity: the wall's, or the no-slip one extrapolated to them)
+    the difference form V_j (v_j - v_i)_a (grad_i W_ij)_b and V_j W_ij; over boundary
+    elements the boundary integral's (v_b - v_i)_a n_b,b W_ib S_b (n out of the fluid), which
+    completes the truncated support: sum_j V_j (f_j - f_i) grad_i W_ij + sum_b (f_b - f_i)
+    n_b W_ib S_b = int grad f W = gamma_i grad f_i (Ferrand et al. 2013)."""
+    grad, w, dim, zero = ctx.grad, ctx.w, ctx.dim, ctx.zero
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        ux = J.v[0, j] - I.v[0, i]
+        uy = J.v[1, j] - I.v[1, i]
+        uz = J.v[2, j] - I.v[2, i] if dim == 3 else zero
+        if elements:  # compile-time choice
+            s = w(r, P) * J.elementSize[j]
+            gx, gy = J.n[0, j] * s, J.n[1, j] * s
+            gz = J.n[2, j] * s if dim == 3 else zero
+            share = zero
+        else:
+            g = grad(r, P) * J.vol[j]
+            gx, gy, gz = g * dx, g * dy, g * dz
+            share = w(r, P) * J.vol[j]
+        return (acc[0] + ux * gx, acc[1] + ux * gy, acc[2] + ux * gz, acc[3] + uy * gx, acc[4] + uy * gy,
+                acc[5] + uy * gz, acc[6] + uz * gx, acc[7] + uz * gy, acc[8] + uz * gz, acc[9] + share)
+
+    return term
+
+
+def make_sps_stress(ctx):
+    """(init, store) of the sub-particle-scale stress of fluid particle i from its velocity
+    gradient G / gamma (Smagorinsky's eddy viscosity with Yoshizawa's isotropic part, in the
+    form of Dalrymple & Rogers 2006 and DualSPHysics): S = (G + G^T) / 2,
+    |S| = sqrt(2 S:S), nu_t = (C_s dp)^2 |S|,
+    tau / rho = nu_t (2 S - 2/3 tr(S) I) - 2/3 C_I dp^2 |S|^2 I, stored as tau (dim x dim)."""
+    dim, zero, one = ctx.dim, ctx.zero, ctx.dtype(1)
+    two, third = ctx.dtype(2), ctx.dtype(1.0 / 3.0)
+
+    @register_jitable
+    def init(i, I, P):
+        return (zero, zero, zero, zero, zero, zero, zero, zero, zero, zero)
+
+    @register_jitable
+    def store(i, I, P, acc):
+        q = one / acc[9] if acc[9] > zero else one
+        if dim == 2:  # G = (acc[0] acc[1]; acc[3] acc[4])
+            sxx, syy, sxy = acc[0] * q, acc[4] * q, (acc[1] + acc[3]) * q / two
+            ss = sxx * sxx + syy * syy + two * sxy * sxy
+            mag = math.sqrt(two * ss)
+            nut = P.sps_cs2 * mag
+            iso = -two * third * nut * (sxx + syy) - P.sps_ci * mag * mag
+            rho = I.rho[i]
+            I.tau[0, i] = rho * (two * nut * sxx + iso)
+            I.tau[1, i] = rho * two * nut * sxy
+            I.tau[2, i] = rho * two * nut * sxy
+            I.tau[3, i] = rho * (two * nut * syy + iso)
+        else:
+            sxx, syy, szz = acc[0] * q, acc[4] * q, acc[8] * q
+            sxy, sxz, syz = (acc[1] + acc[3]) * q / two, (acc[2] + acc[6]) * q / two, (acc[5] + acc[7]) * q / two
+            ss = sxx * sxx + syy * syy + szz * szz + two * (sxy * sxy + sxz * sxz + syz * syz)
+            mag = math.sqrt(two * ss)
+            nut = P.sps_cs2 * mag
+            iso = -two * third * nut * (sxx + syy + szz) - P.sps_ci * mag * mag
+            rho = I.rho[i]
+            I.tau[0, i] = rho * (two * nut * sxx + iso)
+            I.tau[1, i] = rho * two * nut * sxy
+            I.tau[2, i] = rho * two * nut * sxz
+            I.tau[3, i] = rho * two * nut * sxy
+            I.tau[4, i] = rho * (two * nut * syy + iso)
+            I.tau[5, i] = rho * two * nut * syz
+            I.tau[6, i] = rho * two * nut * sxz
+            I.tau[7, i] = rho * two * nut * syz
+            I.tau[8, i] = rho * (two * nut * szz + iso)
+
+    return init, store
+
+
+def make_sps(ctx):
+    """The sub-particle-scale stress's force between fluid particles, rho_i times
+    sum_j m_j (tau_i / rho_i^2 + tau_j / rho_j^2) . grad_i W_ij (the pressure term's symmetric
+    form with -p I replaced by tau: momentum conserved)."""
+    grad, dim, zero = ctx.grad, ctx.dim, ctx.zero
+
+    @register_jitable
+    def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        ri, rj = I.rho[i], J.rho[j]
+        qi = ri / (ri * ri)
+        qj = ri / (rj * rj)
+        f = J.m[j] * grad(r, P)
+        if dim == 2:
+            tx = (I.tau[0, i] * qi + J.tau[0, j] * qj) * dx + (I.tau[1, i] * qi + J.tau[1, j] * qj) * dy
+            ty = (I.tau[2, i] * qi + J.tau[2, j] * qj) * dx + (I.tau[3, i] * qi + J.tau[3, j] * qj) * dy
+            tz = zero
+        else:
+            tx = ((I.tau[0, i] * qi + J.tau[0, j] * qj) * dx + (I.tau[1, i] * qi + J.tau[1, j] * qj) * dy
+                  + (I.tau[2, i] * qi + J.tau[2, j] * qj) * dz)
+            ty = ((I.tau[3, i] * qi + J.tau[3, j] * qj) * dx + (I.tau[4, i] * qi + J.tau[4, j] * qj) * dy
+                  + (I.tau[5, i] * qi + J.tau[5, j] * qj) * dz)
+            tz = ((I.tau[6, i] * qi + J.tau[6, j] * qj) * dx + (I.tau[7, i] * qi + J.tau[7, j] * qj) * dy
+                  + (I.tau[8, i] * qi + J.tau[8, j] * qj) * dz)
+        return add_force(acc, f * tx, f * ty, f * tz)
+
+    return term
+
+
 MU = Param("dynamicViscosity", 0.0, "dynamic viscosity mu", unit="Pa s", check=NONNEG, spec=True)
 #: every viscous term reads the boundary particles' volume and density
 WALL_VOLUME = frozenset({"wall_volume"})
@@ -168,3 +277,32 @@ add("viscous", Choice(
     implies=WALL_VOLUME))
 
 
+
+
+def _sps_build(ctx, q):
+    laminar = _builder(make_mvt)(ctx, q)
+    return Terms(laminar.fluid + [make_sps(ctx)], laminar.wall)
+
+
+def _sps_passes(ctx, q):
+    init, store = make_sps_stress(ctx)
+    wall = make_velocity_gradient(ctx, elements=q.boundary == "elements")
+    return [FluidPass(init, make_velocity_gradient(ctx), store, wall=wall, writes=("tau",))]
+
+
+def _sps_values(q):
+    out = _values(lambda q: 2.0 * q.m["dynamicViscosity"], physical=True)(q)
+    out.update(sps_cs2=(q.m["sps_smagorinsky"] * q.dp) ** 2, sps_ci=2.0 / 3.0 * q.m["sps_blin"] * q.dp ** 2)
+    return out
+
+
+add("viscous", Choice(
+    "LaminarSPS", "Dalrymple & Rogers (2006); DualSPHysics' Laminar+SPS",
+    "the MVT laminar term with mu plus the divergence of the sub-particle-scale stress tau (Smagorinsky "
+    "eddy viscosity (C_s dp)^2 |S|, Yoshizawa's isotropic part C_I dp^2 |S|^2), the velocity gradient from "
+    "a pass before each interaction",
+    params=(MU, SCALE, WALL_LAW,
+            Param("sps_smagorinsky", 0.12, "Smagorinsky's constant C_s (the filter width is dp)", check=POS),
+            Param("sps_blin", 0.0066, "C_I of the isotropic part (Blin et al. 2002)", check=NONNEG)),
+    p_fields=("visc", "wall_visc", "wall_nu", "sps_cs2", "sps_ci"), values=_sps_values, build=_sps_build,
+    nu=physical_nu, check=_wall_law_check, implies=frozenset({"wall_volume", "stress"}), passes=_sps_passes))
