@@ -47,7 +47,7 @@ print(json.dumps({"n": [c[4], g[4]], "steps": [c[5], g[5]],
 #: simulator cases run with ``-m validation`` only: 10-35 s each cold, and the default suite
 #: must stay within ten minutes on a cold two-core machine
 SLOW = {"classic-3d", "bi-2d-midpoint", "bi-2d-rk45", "classic-2d-verlet", "bi-2d-corrections",
-        "classic-2d-corrections", "bi-2d-open", "bi-2d-floating", "bi-2d-wall-law"}
+        "classic-2d-corrections", "bi-2d-open", "bi-2d-floating", "bi-2d-wall-law", "bi-2d-sps"}
 
 
 CASES = [
@@ -68,6 +68,8 @@ CASES = [
     # the turbulent wall law (y+ up to about 300 here: the law, not its no-slip branch)
     ("bi-2d-wall-law", "dam_break_2d_bi", 0.05, {"model.wall_law": "werner-wengle", "time.dt": 0.002}),
     ("bi-2d-open", "poiseuille_open_2d", 0.05, {"time.dt": 0.004, "time.max_steps": 8}),
+    # the sub-particle-scale stress: a fluid pass before the interaction, a matrix field
+    ("bi-2d-sps", "dam_break_2d_bi", 0.05, {"model.ViscousTerm": "LaminarSPS", "model.dynamicViscosity": 1e-3}),
     ("bi-2d-floating", "hydrostatic_2d_bi", 0.1, {"obstacle": [{"name": "box", "min": [0.8, 0.3], "max": [1.2, 0.7],
                                                                "floating": {"density": 700.0}}]}),
 ]
