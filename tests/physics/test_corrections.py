@@ -312,6 +312,11 @@ def _sps_sim(name, dim, dp, v_of_x):
     return x, a, tau, np.min(np.concatenate([x, 1.0 - x]), axis=0)
 
 
+#: the SPS tests on one worker: the second test of a model loads the first one's loops
+SPS_GROUP = pytest.mark.xdist_group("sps")
+
+
+@SPS_GROUP
 @pytest.mark.parametrize("name,dim", [("bi", 2), ("classic", 2), pytest.param("bi", 3, marks=pytest.mark.validation),
                                       pytest.param("classic", 3, marks=pytest.mark.validation)])
 def test_sps_stress_of_a_linear_flow(name, dim):
@@ -334,6 +339,7 @@ def test_sps_stress_of_a_linear_flow(name, dim):
     assert err.max() < (0.005 if name == "classic" else 0.10), err.max()
 
 
+@SPS_GROUP
 @pytest.mark.parametrize("name", ["bi", "classic"])
 def test_sps_force_is_the_divergence_of_the_stress(name):
     """v = (c y^2, 0): |S| = 2 c y, so tau_xy / rho = 4 (C_s dp)^2 c^2 y^2 and
