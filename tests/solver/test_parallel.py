@@ -70,7 +70,7 @@ RUNS_MORE = [
     ("dam_break_2d_bi", "dp=0.02", F64, 'time.integrator="midpoint"'),
     ("dam_break_2d_bi", "dp=0.02", F64, 'model.BCType="BIConservative_numeric"', 'model.ViscousTerm="PhysicalViscosity_MVT"'),
     ("dam_break_2d", "dp=0.04", F64, 'model.kernel_correction="CSPM"', 'model.wall_velocity="adami"',
-     'model.ViscousTerm="PhysicalViscosity_MVT"', "model.dynamicViscosity=0.001", "model.sps_smagorinsky=1.0"),
+     'model.ViscousTerm="PhysicalViscosity_MVT"', "model.dynamicViscosity=0.001"),
     ("dam_break_2d_bi", "dp=0.02", F64, 'model.collision="DPC"', 'model.shifting="Lind"', 'model.xsph="position"'),
     # the SPS stress, which the interaction reads of neighbours: refreshed on the ghosts (C_s = 1 to make it count)
     ("dam_break_2d_bi", "dp=0.02", F64, 'model.ViscousTerm="LaminarSPS"', "model.dynamicViscosity=0.001", "model.sps_smagorinsky=1.0"),
