@@ -43,12 +43,13 @@ _FLUID = "x v dvdt rho p pr vol m"
 #: the fluid's fields beyond x, v, m, id: name -> (kind, the model flag that adds it or None for
 #: every model). One table for what the set holds, what the views see and the stand-ins a
 #: view gets for a field its case lacks; every one is scratch (written by each evaluation
-#: before it is read) except rho of a continuity model. "matrix" is a (dim * dim,) field.
+#: before it is read) except rho of a continuity model. "matrix" is a (dim * dim,) field,
+#: "symmetric" a symmetric matrix's dim (dim + 1) / 2 components (xx, xy, yy; xx, xy, xz, yy, yz, zz).
 FLUID_FIELDS = {
     "dvdt": ("vector", None), "rho": ("scalar", None), "p": ("scalar", None), "pr": ("scalar", None),
     "vol": ("scalar", None), "drhodt": ("scalar", "continuity"), "shepard": ("scalar", "consistent"),
     "L": ("matrix", "corrected"), "corr": ("vector", "after_step"), "rho_corr": ("scalar", "after_step"),
-    "c": ("scalar", "sound"), "tau": ("matrix", "stress"),
+    "c": ("scalar", "sound"), "tau": ("symmetric", "stress"),
 }
 #: the flags that add optional fields, in the order the view classes are named by
 _FLAGS = ("continuity", "consistent", "corrected", "after_step", "sound", "stress")
@@ -80,7 +81,7 @@ WALL_VIEWS = (ParticleWallView, ParticleWallViewFull, ParticleWallViewPressure, 
 WALL_FIELDS = {"n": "vector", "elementSize": "scalar", "psi": "scalar", "vol": "scalar", "p": "scalar",
                "rho": "scalar", "pr": "scalar"}
 #: array dimensions of a field of each kind ((N,) scalars; (dim, N) vectors and matrices)
-_NDIM = {"scalar": 1, "vector": 2, "matrix": 2}
+_NDIM = {"scalar": 1, "vector": 2, "matrix": 2, "symmetric": 2}
 
 
 _LOAD_VIEWS = {}
@@ -277,7 +278,7 @@ class WCSPH:
         """(name, kind, scratch) of the fields this selection needs (``FLUID_FIELDS``):
         scratch when every evaluation writes the field before reading it (sorting skips those)."""
         on = {f for f, v in zip(_FLAGS, self._flags) if v}
-        kinds = {"matrix": (self.dim * self.dim,)}
+        kinds = {"matrix": (self.dim * self.dim,), "symmetric": (self.dim * (self.dim + 1) // 2,)}
         return [(name, kinds.get(kind, kind), not (name == "rho" and self.continuity))
                 for name, (kind, flag) in FLUID_FIELDS.items() if flag is None or flag in on]
 

@@ -147,7 +147,9 @@ def make_sps_stress(ctx):
     gradient G / gamma (Smagorinsky's eddy viscosity with Yoshizawa's isotropic part, in the
     form of Dalrymple & Rogers 2006 and DualSPHysics): S = (G + G^T) / 2,
     |S| = sqrt(2 S:S), nu_t = (C_s dp)^2 |S|,
-    tau / rho = nu_t (2 S - 2/3 tr(S) I) - 2/3 C_I dp^2 |S|^2 I, stored as tau (dim x dim)."""
+    tau / rho = nu_t (2 S - 2/3 tr(S) I) - 2/3 C_I dp^2 |S|^2 I. Stored as tau / rho^2 (as
+    ``pr`` holds p / rho^2, what the pair term reads), its components xx, xy, yy (2D) or xx,
+    xy, xz, yy, yz, zz (3D)."""
     dim, zero, one = ctx.dim, ctx.zero, ctx.dtype(1)
     two, third = ctx.dtype(2), ctx.dtype(1.0 / 3.0)
 
@@ -158,17 +160,17 @@ def make_sps_stress(ctx):
     @register_jitable
     def store(i, I, P, acc):
         q = one / acc[9] if acc[9] > zero else one
+        r = one / I.rho[i]
         if dim == 2:  # G = (acc[0] acc[1]; acc[3] acc[4])
             sxx, syy, sxy = acc[0] * q, acc[4] * q, (acc[1] + acc[3]) * q / two
             ss = sxx * sxx + syy * syy + two * sxy * sxy
             mag = math.sqrt(two * ss)
             nut = P.sps_cs2 * mag
             iso = -two * third * nut * (sxx + syy) - P.sps_ci * mag * mag
-            rho = I.rho[i]
-            I.tau[0, i] = rho * (two * nut * sxx + iso)
-            I.tau[1, i] = rho * two * nut * sxy
-            I.tau[2, i] = rho * two * nut * sxy
-            I.tau[3, i] = rho * (two * nut * syy + iso)
+            c = two * nut * r
+            I.tau[0, i] = c * sxx + iso * r
+            I.tau[1, i] = c * sxy
+            I.tau[2, i] = c * syy + iso * r
         else:
             sxx, syy, szz = acc[0] * q, acc[4] * q, acc[8] * q
             sxy, sxz, syz = (acc[1] + acc[3]) * q / two, (acc[2] + acc[6]) * q / two, (acc[5] + acc[7]) * q / two
@@ -176,16 +178,13 @@ def make_sps_stress(ctx):
             mag = math.sqrt(two * ss)
             nut = P.sps_cs2 * mag
             iso = -two * third * nut * (sxx + syy + szz) - P.sps_ci * mag * mag
-            rho = I.rho[i]
-            I.tau[0, i] = rho * (two * nut * sxx + iso)
-            I.tau[1, i] = rho * two * nut * sxy
-            I.tau[2, i] = rho * two * nut * sxz
-            I.tau[3, i] = rho * two * nut * sxy
-            I.tau[4, i] = rho * (two * nut * syy + iso)
-            I.tau[5, i] = rho * two * nut * syz
-            I.tau[6, i] = rho * two * nut * sxz
-            I.tau[7, i] = rho * two * nut * syz
-            I.tau[8, i] = rho * (two * nut * szz + iso)
+            c = two * nut * r
+            I.tau[0, i] = c * sxx + iso * r
+            I.tau[1, i] = c * sxy
+            I.tau[2, i] = c * sxz
+            I.tau[3, i] = c * syy + iso * r
+            I.tau[4, i] = c * syz
+            I.tau[5, i] = c * szz + iso * r
 
     return init, store
 
@@ -193,27 +192,23 @@ def make_sps_stress(ctx):
 def make_sps(ctx):
     """The sub-particle-scale stress's force between fluid particles, rho_i times
     sum_j m_j (tau_i / rho_i^2 + tau_j / rho_j^2) . grad_i W_ij (the pressure term's symmetric
-    form with -p I replaced by tau: momentum conserved)."""
-    grad, dim, zero = ctx.grad, ctx.dim, ctx.zero
+    form with -p I replaced by tau: momentum conserved), from the stored tau / rho^2."""
+    grad, dim = ctx.grad, ctx.dim
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        ri, rj = I.rho[i], J.rho[j]
-        qi = ri / (ri * ri)
-        qj = ri / (rj * rj)
-        f = J.m[j] * grad(r, P)
+        f = I.rho[i] * J.m[j] * grad(r, P)
+        xx = I.tau[0, i] + J.tau[0, j]
+        xy = I.tau[1, i] + J.tau[1, j]
         if dim == 2:
-            tx = (I.tau[0, i] * qi + J.tau[0, j] * qj) * dx + (I.tau[1, i] * qi + J.tau[1, j] * qj) * dy
-            ty = (I.tau[2, i] * qi + J.tau[2, j] * qj) * dx + (I.tau[3, i] * qi + J.tau[3, j] * qj) * dy
-            tz = zero
-        else:
-            tx = ((I.tau[0, i] * qi + J.tau[0, j] * qj) * dx + (I.tau[1, i] * qi + J.tau[1, j] * qj) * dy
-                  + (I.tau[2, i] * qi + J.tau[2, j] * qj) * dz)
-            ty = ((I.tau[3, i] * qi + J.tau[3, j] * qj) * dx + (I.tau[4, i] * qi + J.tau[4, j] * qj) * dy
-                  + (I.tau[5, i] * qi + J.tau[5, j] * qj) * dz)
-            tz = ((I.tau[6, i] * qi + J.tau[6, j] * qj) * dx + (I.tau[7, i] * qi + J.tau[7, j] * qj) * dy
-                  + (I.tau[8, i] * qi + J.tau[8, j] * qj) * dz)
-        return add_force(acc, f * tx, f * ty, f * tz)
+            yy = I.tau[2, i] + J.tau[2, j]
+            return add_force(acc, f * (xx * dx + xy * dy), f * (xy * dx + yy * dy), f * dz)
+        xz = I.tau[2, i] + J.tau[2, j]
+        yy = I.tau[3, i] + J.tau[3, j]
+        yz = I.tau[4, i] + J.tau[4, j]
+        zz = I.tau[5, i] + J.tau[5, j]
+        return add_force(acc, f * (xx * dx + xy * dy + xz * dz), f * (xy * dx + yy * dy + yz * dz),
+                         f * (xz * dx + yz * dy + zz * dz))
 
     return term
 
