@@ -262,8 +262,10 @@ class WCSPH:
             (c, mk(dim, dtype, c.init, c.fluid, c.store, pair2=c.wall), backend.make_map(c.apply))
             for c in self.after_step_passes]
         self._placeholders = {}
-        self._flags = (self.continuity, self.consistent, self.corrected, bool(self.after_step_passes), self.needs_c,
-                       "stress" in implied)
+        # the flags that add fluid fields: the selection's ``implies`` and two the model knows
+        on = set(implied) | ({"consistent"} if self.consistent else set()) | (
+            {"after_step"} if self.after_step_passes else set())
+        self._flags = tuple(flag in on for flag in _FLAGS)
         self.fluid_view = globals()[_fluid_view_name(self._flags)]
         # the smallest wall view with what the walls' terms and passes read
         reads = {f for flag, fields in wall.wall_reads.items() if flag is None or flag in implied for f in fields}
