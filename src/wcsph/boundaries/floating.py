@@ -165,6 +165,8 @@ class FloatingBody:
     """A rigid body's mass properties and state; ``pose`` has the interface of ``motion.Motion``
     (displacement of the centre, rotation, velocities, accelerations)."""
 
+    container = ()  # no faces another body stays inside of (``Driven.container``)
+
     def __init__(self, key, dim, mass, centre, inertia, release=0.0, added_mass=0.0, added_inertia=0.0,
                  translation=None, rotation=None, hinge=None, springs=(), friction=0.0):
         if not mass > 0 or not np.all(np.isfinite(inertia)) or np.any(np.linalg.eigvalsh(np.atleast_2d(inertia)) <= 0):
@@ -789,7 +791,7 @@ def _keep_inside(p, q):
     the deepest point past a face puts p back on it (along p's free axes; q does not move),
     then impulses along the face's normal through the contact points take out the speed at
     which p approaches the face, which moves with q. Returns whether p touched a face."""
-    faces = getattr(q, "container", ())
+    faces = q.container
     if not faces or not p.points.shape[1] or not np.isfinite(p.mass):
         return False
     Rq = q.R if q.dim == 3 else _rot2(q.theta)
