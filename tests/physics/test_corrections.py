@@ -312,12 +312,14 @@ def _sps_sim(name, dim, dp, v_of_x):
     return x, a, tau, np.min(np.concatenate([x, 1.0 - x]), axis=0)
 
 
-#: the SPS tests on one worker: the second test of a model loads the first one's loops
+#: the SPS tests on one worker: the second test of a model loads the first one's loops (the
+#: default suite runs WCSPH-BI's; the classic model's and 3D behind the validation marker)
 SPS_GROUP = pytest.mark.xdist_group("sps")
 
 
 @SPS_GROUP
-@pytest.mark.parametrize("name,dim", [("bi", 2), ("classic", 2), pytest.param("bi", 3, marks=pytest.mark.validation),
+@pytest.mark.parametrize("name,dim", [("bi", 2), pytest.param("classic", 2, marks=pytest.mark.validation),
+                                      pytest.param("bi", 3, marks=pytest.mark.validation),
                                       pytest.param("classic", 3, marks=pytest.mark.validation)])
 def test_sps_stress_of_a_linear_flow(name, dim):
     """``LaminarSPS``: for v = A x the sub-particle-scale stress of every particle is
@@ -341,7 +343,7 @@ def test_sps_stress_of_a_linear_flow(name, dim):
 
 
 @SPS_GROUP
-@pytest.mark.parametrize("name", ["bi", "classic"])
+@pytest.mark.parametrize("name", ["bi", pytest.param("classic", marks=pytest.mark.validation)])
 def test_sps_force_is_the_divergence_of_the_stress(name):
     """v = (c y^2, 0): |S| = 2 c y, so tau_xy / rho = 4 (C_s dp)^2 c^2 y^2 and
     tau_xx = tau_yy = -2/3 C_I dp^2 rho 4 c^2 y^2; the force per unit mass is their
