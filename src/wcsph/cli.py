@@ -66,7 +66,7 @@ def _parser():
                                     "per check. Exit status 1 when a check fails (the report names the open "
                                     "goals: checks whose tolerance is a target not met yet).")
     va.add_argument("--quick", action="store_true", help="the quick subset (a few minutes on two cores)")
-    va.add_argument("--only", default=None, metavar="NAME", help="only the checks whose name contains NAME")
+    va.add_argument("--only", default=None, metavar="NAME", help="only the checks whose name contains NAME (the one named NAME, where one is)")
     va.add_argument("--output", "-o", default="runs/validation", help="report directory (default: runs/validation)")
     su = sub.add_parser("surface", help="the free surface of every frame of a finished run, as a mesh "
                                          "(surface_NNNN.vtu, surface.pvd)")

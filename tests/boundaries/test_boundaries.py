@@ -173,6 +173,7 @@ def test_validate_command_writes_a_report(tmp_path):
     assert r.returncode == 0, r.stderr[-2000:]
     text = (out / "report.md").read_text()
     assert "| Couette, moving wall, WCSPH-BI |" in text and "pass" in text
+    assert "Couette, moving wall, classic" not in text  # the check named couette alone, not couette_classic
     assert (out / "check_00.png").stat().st_size > 1000
     r = subprocess.run([sys.executable, "-m", "wcsph.cli", "validate", "--only", "nosuch", "-o", str(out)],
                        capture_output=True, text=True, timeout=600)

@@ -678,13 +678,15 @@ CHECKS = [
 
 def run_all(output, quick=False, only=None, log=print):
     """Run the validation set (the quick subset with ``quick``; the checks whose function
-    name contains ``only``), write ``report.md`` and the plots into ``output``; return the
-    results."""
+    name contains ``only``, or the one named ``only`` where one is: ``couette`` is the
+    WCSPH-BI Couette check alone, not ``couette_classic`` too), write ``report.md`` and the
+    plots into ``output``; return the results."""
     out = Path(output)
     out.mkdir(parents=True, exist_ok=True)
     results = []
+    exact = only is not None and any(fn.__name__ == only for fn, _ in CHECKS)
     for fn, in_quick in CHECKS:
-        if (quick and not in_quick) or (only and only not in fn.__name__):
+        if (quick and not in_quick) or (only and (fn.__name__ != only if exact else only not in fn.__name__)):
             continue
         t0 = time.perf_counter()
         log(f"validate: {fn.__name__} ...")
