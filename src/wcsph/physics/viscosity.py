@@ -112,14 +112,16 @@ def make_boundary_viscosity(ctx, artificial, law="no-slip"):
     return term
 
 
-def make_velocity_gradient(ctx, elements=False):
+def make_velocity_gradient(ctx, elements=False, shepard=True):
     """Pair term of the velocity gradient G_ab = d v_a / d x_b of fluid particle i and its
     Shepard sum gamma_i (accumulator: G row by row, then gamma). Over fluid neighbours and
     boundary particles (their velocity: the wall's, or the no-slip one extrapolated to them)
     the difference form V_j (v_j - v_i)_a (grad_i W_ij)_b and V_j W_ij; over boundary
     elements the boundary integral's (v_b - v_i)_a n_b,b W_ib S_b (n out of the fluid), which
     completes the truncated support: sum_j V_j (f_j - f_i) grad_i W_ij + sum_b (f_b - f_i)
-    n_b W_ib S_b = int grad f W = gamma_i grad f_i (Ferrand et al. 2013)."""
+    n_b W_ib S_b = int grad f W = gamma_i grad f_i (Ferrand et al. 2013). ``shepard=False``
+    (boundary particles, whose full support makes gamma 1): no gamma, the store divides by
+    nothing, and the pass evaluates no kernel value."""
     grad, w, dim, zero = ctx.grad, ctx.w, ctx.dim, ctx.zero
 
     @register_jitable
@@ -135,7 +137,7 @@ def make_velocity_gradient(ctx, elements=False):
         else:
             g = grad(r, P) * J.vol[j]
             gx, gy, gz = g * dx, g * dy, g * dz
-            share = w(r, P) * J.vol[j]
+            share = w(r, P) * J.vol[j] if shepard else zero
         return (acc[0] + ux * gx, acc[1] + ux * gy, acc[2] + ux * gz, acc[3] + uy * gx, acc[4] + uy * gy,
                 acc[5] + uy * gz, acc[6] + uz * gx, acc[7] + uz * gy, acc[8] + uz * gz, acc[9] + share)
 
@@ -281,8 +283,9 @@ def _sps_build(ctx, q):
 
 def _sps_passes(ctx, q):
     init, store = make_sps_stress(ctx)
-    wall = make_velocity_gradient(ctx, elements=q.boundary == "elements")
-    return [FluidPass(init, make_velocity_gradient(ctx), store, wall=wall, writes=("tau",))]
+    elements = q.boundary == "elements"
+    wall = make_velocity_gradient(ctx, elements=elements, shepard=elements)
+    return [FluidPass(init, make_velocity_gradient(ctx, shepard=elements), store, wall=wall, writes=("tau",))]
 
 
 def _sps_values(q):
