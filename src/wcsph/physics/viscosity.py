@@ -8,9 +8,9 @@ Over boundary elements the wall term is the spec's boundary integral; over bound
 (Akinci walls) the bulk term itself, with the particles' volume Psi/rho0, density rho0 and
 velocity: the no-slip wall of Morris, Fox & Zhu (1997) and Adami, Hu & Adams (2012).
 """
-from numba.extending import register_jitable
-
 import math
+
+from numba.extending import register_jitable
 
 from . import FluidPass
 from .registry import NONNEG, POS, Choice, Param, add, one_of
@@ -272,8 +272,6 @@ add("viscous", Choice(
     "2 (n+2) mu sum_j psi_ij grad W_ij V_j", params=(MU, SCALE, WALL_LAW), p_fields=("visc", "wall_visc", "wall_nu"),
     values=_values(lambda q: 2.0 * (q.dim + 2) * q.m["dynamicViscosity"], physical=True), build=_builder(make_mgvt), nu=physical_nu, check=_wall_law_check,
     implies=WALL_VOLUME))
-
-
 
 
 def _sps_build(ctx, q):

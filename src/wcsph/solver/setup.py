@@ -210,7 +210,6 @@ def _integrator(case, be, model, warnings):
 
 def _floating_bodies(case):
     """{body index: FloatingBody} of the case's floating wall sources."""
-    from ..case.config import _wall_sources
     from ..boundaries.floating import body_of
     from ..io.readers import read_surface
 
