@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import wcsph
-from wcsph.case.config import validate
+from wcsph.case.config import _wall_sources, validate
 from wcsph.errors import CaseError
 from wcsph.boundaries.floating import box_faces, box_properties, mesh_properties, polygon_properties
 
@@ -737,15 +737,15 @@ def test_convex_pieces_cover_the_polygon_and_expose_its_own_edges(pts, pieces):
 def test_a_box_dropped_into_a_fixed_cup_rests_on_its_inner_floor():
     """A fixed concave polygon (a cup, open on top: its floor 0.1 m thick at y = 0.1-0.2, walls
     at x = 0-0.1 and 0.9-1.0) holds a falling box out of it as a convex obstacle is held
-    (``fixed_blocks`` gives its convex pieces): the box, dropped inside the cup, never has a
+    (``wall_contacts`` gives its convex pieces): the box, dropped inside the cup, never has a
     point inside the cup's solid and comes to rest on its inner floor (within 1e-9 m)."""
-    from wcsph.boundaries.floating import FloatingBody, fixed_blocks
+    from wcsph.boundaries.floating import FloatingBody, wall_contacts
 
     cup = [[0.0, 0.1], [1.0, 0.1], [1.0, 0.8], [0.9, 0.8], [0.9, 0.2], [0.1, 0.2], [0.1, 0.8], [0.0, 0.8]]
     case = validate({"dim": 2, "dp": 0.1, "time": {"end": 0.1}, "fluid": [{"min": [1.2, 0.0], "max": [1.5, 0.3]}],
                      "tank": {"min": [-0.5, 0.0], "max": [1.6, 2.0]},
                      "polygon": [{"points": cup[::-1], "closed": True}]})  # clockwise, the fluid outside
-    blocks = fixed_blocks(case)
+    _, blocks, _ = wall_contacts(_wall_sources(case), np.zeros((2, 0)), np.zeros(0, dtype=int))
     assert len(blocks) >= 3 and all(len(b) == 3 for b in blocks)
     b = FloatingBody("box", 2, 2.0, [0.5, 0.6], 2.0 * (0.2 ** 2 + 0.2 ** 2) / 12.0)
     corners = np.array([0.5, 0.6])[:, None] + np.array([[-0.1, 0.1, 0.1, -0.1, 0.0, 0.1, 0.0, -0.1],
@@ -800,18 +800,19 @@ def test_a_box_thrown_into_a_floating_l_stays_out_of_it_and_keeps_the_momentum()
 
 @pytest.mark.parametrize("mu", [0.0, 0.5])
 def test_a_box_on_a_fixed_wedge_slides_off_or_stays_by_its_friction(mu):
-    """A fixed closed polygon (a wedge whose right face slopes at 0.3 rad) holds a floating box
-    out of it as the tank's faces do (``fixed_blocks``): the box, turned to lie flat on the
+    """A fixed closed polygon, clockwise (a body: the fluid outside; a wedge whose right face
+    slopes at 0.3 rad), holds a floating box
+    out of it as the tank's faces do (``wall_contacts``): the box, turned to lie flat on the
     slope and released on it, slides down at g sin 0.3 frictionless (to 1e-9 of the exact
     speed after 0.3 s) and stays with mu = 0.5 > tan 0.3; it never has a point inside the
     wedge, nor turns."""
-    from wcsph.boundaries.floating import FloatingBody, fixed_blocks
+    from wcsph.boundaries.floating import FloatingBody, wall_contacts
 
     theta = 0.3
     case = validate({"dim": 2, "dp": 0.1, "time": {"end": 0.1}, "fluid": [{"min": [0.0, 0.0], "max": [0.5, 0.5]}],
                      "tank": {"min": [0.0, 0.0], "max": [6.0, 3.0]},
-                     "polygon": [{"points": [[1.0, 0.0], [5.0, 0.0], [1.0, 4.0 * np.tan(theta)]], "closed": True}]})
-    blocks = fixed_blocks(case)
+                     "polygon": [{"points": [[1.0, 0.0], [1.0, 4.0 * np.tan(theta)], [5.0, 0.0]], "closed": True}]})
+    _, blocks, _ = wall_contacts(_wall_sources(case), np.zeros((2, 0)), np.zeros(0, dtype=int))
     assert len(blocks) == 1 and len(blocks[0][1]) == 3
     t = np.array([np.cos(theta), -np.sin(theta)])  # down the slope
     n = np.array([np.sin(theta), np.cos(theta)])  # out of the slope
@@ -1132,6 +1133,33 @@ def test_a_moving_tank_pushes_the_box_inside_it(tmp_path):
     assert float(last["box_x"]) - 0.1 == pytest.approx(0.5 * t, abs=1e-9)
     assert float(last["box_vx"]) == pytest.approx(0.5, abs=1e-9)
     assert float(last["box_y"]) == pytest.approx(0.1, abs=1e-9)
+
+
+@pytest.mark.parametrize("shape", ["convex", "concave"])
+def test_a_box_dropped_in_a_container_polygon_lands_on_its_floor(shape, tmp_path):
+    """The tank as a closed polygon running counter-clockwise (the fluid inside), with no
+    tank box: a convex one (held by its faces) and a concave one, a floor with a step in it
+    (held by its wall points). The box dropped in it lands on its floor (its bottom on the
+    floor within 1e-9 m, at rest, where it was across), and the water stays in the polygon.
+    Before the change a closed polygon was always a body: the box was thrown out of the
+    tank at the first step and the water was carved from outside it."""
+    pts = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]]
+    if shape == "concave":
+        pts = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.3], [2.0, 0.3], [2.0, 2.0], [0.0, 2.0]]
+    case = _free_fall_case(2)
+    case.pop("tank")
+    case["domain"] = {"min": [-0.2, -0.2], "max": [2.2, 2.2]}
+    case["polygon"] = [{"points": pts, "closed": True}]
+    case["fluid"] = [{"min": [-0.1, -0.1], "max": [0.3, 0.2]}]  # reaches out of the polygon
+    case["obstacle"].append({"min": [0.35, 0.0], "max": [0.45, 0.5]})  # a dam: no water under the box
+    case["time"]["end"] = 0.7
+    s = wcsph.run(case, output=tmp_path / "out", progress=False)
+    last = list(csv.DictReader(open(tmp_path / "out" / "probes.csv")))[-1]
+    floor = 0.3 if shape == "concave" else 0.0
+    assert float(last["box_x"]) == pytest.approx(1.5, abs=1e-9)
+    assert float(last["box_y"]) - 0.1 - floor == pytest.approx(0.0, abs=1e-9)
+    assert abs(float(last["box_vy"])) < 1e-12
+    assert s["n_fluid"] == 6 * 4 and s["dropped"] == 0
 
 
 @pytest.mark.parametrize("source", ["file", "polyline"])

@@ -55,6 +55,39 @@ def test_a_classic_case_walls_a_closed_polygon_with_particles():
     assert gap >= 0.05 - 1e-9
 
 
+@pytest.mark.parametrize("model", ["classic", "bi"])
+def test_a_counter_clockwise_polygon_holds_the_block_fluid_inside_it(model):
+    """A container polygon (counter-clockwise: the fluid on the left, inside), a cup with a
+    sloping side, and a fluid block larger than it: the fluid is kept inside it and only there,
+    every particle at least dp/2 from its outline, all the block's lattice points so placed;
+    its walls (particles, elements) lie on the other side. Before the change the fluid was
+    carved as from a body: the particles outside the cup were kept and those inside removed."""
+    cup = [[0.0, 0.0], [0.8, 0.0], [1.0, 0.6], [0.0, 0.6]]
+    dp = 0.05
+    case = validate({"dim": 2, "dp": dp, "time": {"end": 0.1}, "model": {"name": model},
+                     "domain": {"min": [-0.3, -0.3], "max": [1.3, 1.0]},
+                     "fluid": [{"min": [-0.2, -0.2], "max": [1.2, 0.4]}],
+                     "polygon": [{"points": cup, "closed": True}]})
+    fluid, walls, _, _ = geometry.build(case)
+    x, pts = fluid["x"], np.asarray(cup, dtype=float)
+    assert np.all(geometry._in_polygon(x, pts, 0.0)) and np.all(geometry._outline_distance(x, pts) >= 0.5 * dp - 1e-9)
+    want = geometry.lattice([-0.2, -0.2], [1.2, 0.4], dp)
+    want = want[:, geometry._in_polygon(want, pts, 0.0) & (geometry._outline_distance(want, pts) >= 0.5 * dp - 1e-9)]
+    assert x.shape[1] == want.shape[1] > 100
+    if model == "classic":
+        assert not geometry._in_polygon(walls["x"], pts, 0.0).any()
+    else:  # each element's normal points out of the fluid: a step along it leaves the cup
+        assert not geometry._in_polygon(walls["x"] + 0.01 * walls["n"], pts, 0.0).any()
+        assert geometry._in_polygon(walls["x"] - 0.01 * walls["n"], pts, 0.0).all()
+
+
+def test_a_polygon_that_leaves_no_fluid_says_which_way_it_holds_it():
+    case = validate(dict({k: v for k, v in CLASSIC.items() if k != "tank"}, domain={"min": [-0.5, -0.5], "max": [1.5, 1.5]},
+                         polygon=[{"points": [[2.0, 0.0], [3.0, 0.0], [3.0, 1.0], [2.0, 1.0]], "closed": True}]))
+    with pytest.raises(CaseError, match=r"polygon: .*inside when they run counter-clockwise"):
+        geometry.build(case)
+
+
 def test_an_open_polygon_with_wall_particles_is_one_line():
     case = validate(dict(CLASSIC, polygon=[{"points": [[0.2, 0.1], [0.6, 0.1]], "closed": False}]))
     with pytest.raises(CaseError, match=r"polygon\[0\]\.closed: an open polygon has no solid side"):

@@ -56,7 +56,7 @@ at the same points also take out the sliding speed there, each at most mu times 
 normal impulse, so that a body on a slope stays where tan(slope) <= mu and slides with
 g (sin - mu cos) where it is steeper (with another body, the lesser of the two mu). The
 same holds a body out of the case's fixed obstacle boxes and closed polygons (their
-faces as half-spaces, ``fixed_blocks``): wall points of the body inside one move the body out
+faces as half-spaces, ``wall_contacts``): wall points of the body inside one move the body out
 through the face that needs the least push (along its normal, on the free axes), and impulses
 through them take its velocity into the obstacle out, turning it as at the tank's faces.
 Two floating bodies (``collide``) are parted the same way in the frame of the one entered,
@@ -74,11 +74,12 @@ surface, up to
 closed polygon on a prescribed path (``Driven``) is the other side of such a contact with an
 infinite mass: the push is all the floating body's, and the impulses take out the speed at
 which the body approaches the obstacle's moving surface (a piston pushes a box ahead of it
-at its own speed); a closed wall mesh on a path likewise. A container on a path (the tank box
-moving, a convex closed wall mesh with the fluid inside, fixed or moving) holds a body inside
+at its own speed); a closed wall mesh on a path likewise. A container (the tank box on a path; a
+convex closed wall mesh with the fluid inside or a convex closed polygon running
+counter-clockwise, fixed or moving) holds a body inside
 its faces the same way, the impulses taking out the speed at which the body approaches the
 moving face. Every other wall (a wall particle file, an open polygon, a concave container
-mesh), fixed or on a path, holds a body out by its wall points: a point inside one of the
+mesh or polygon), fixed or on a path, holds a body out by its wall points: a point inside one of the
 body's shapes pushes it out as a point of another body would (``Driven`` with no shapes).
 """
 import math
@@ -206,7 +207,7 @@ class FloatingBody:
     def meet(self, points, planes, blocks=()):
         """The body's wall points (dim, K) at rest, the faces it must stay inside of
         ((unit normal, offset): inside where n . x >= offset) and the fixed convex obstacles it
-        must stay out of (``fixed_blocks``, ``box_faces``: (N, o) half-spaces, inside where
+        must stay out of (``wall_contacts``, ``box_faces``: (N, o) half-spaces, inside where
         N x < o)."""
         self.points = np.asarray(points, dtype=float) - self.c0[:, None]
         # beyond this distance from its centre no point is inside any of its shapes (which its
@@ -1179,57 +1180,65 @@ class Driven:
         return np.zeros(self.dim), np.zeros_like(arms), arms
 
 
-def driven_obstacles(sources, bodies, points, body, meshes=None):
-    """The walls a floating body meets other than the fixed tank's faces (``tank_planes``) and
-    the fixed obstacles it stays out of (``fixed_blocks``), as ``Driven`` sides of its
-    contacts, each about the centre its motion turns it about (a fixed one: ``Still``):
-    - a box, closed polygon or closed wall mesh with the fluid outside, on a prescribed path:
-      its shapes as ``mesh_shapes`` has them (a convex one as its faces, a concave one as its
-      pieces or itself), and its wall points;
-    - the tank on a path, or a convex closed wall mesh with the fluid inside (a container),
-      fixed or on a path: its faces as ``container`` faces;
-    - any other wall (a particle file, an open polygon, a concave container), fixed or on a
-      path: its wall points alone, which a floating body's shapes hold out.
-    ``points`` (dim, n) the wall points at rest and ``body`` their bodies; ``sources``: (key,
-    table) of each wall source in the bodies' order (``case.config``'s); ``meshes``: {key
-    ("walls[k]"): (vertices, faces)} of the wall meshes that do not float."""
+def wall_contacts(sources, points, body, motions=None, centres=None, meshes=None):
+    """Every wall a floating body meets, each wall source classified once, as
+    (``planes``, ``blocks``, ``driven``):
+    - ``planes``: the fixed tank's faces ((n, o), inside where n . x >= o; ``tank_planes``);
+    - ``blocks``: the fixed obstacles a body stays out of: obstacle boxes, closed polygons
+      with the fluid outside (clockwise) and closed wall meshes with the fluid outside, as
+      (N, o) half-spaces (inside where N x < o), a concave polygon as its convex pieces (N, o,
+      exposed: ``convex_pieces``), a concave 3D mesh as itself (``MeshShape``);
+    - ``driven``: the rest as ``Driven`` sides of a contact, each about the centre its motion
+      turns it about (a fixed one: ``Still``, about the origin): a box, closed polygon or
+      closed mesh with the fluid outside on a prescribed path (its shapes as ``mesh_shapes``
+      has them, and its wall points); a container (the tank on a path, a convex closed
+      polygon with the fluid inside, a convex closed mesh with ``fluid_side = "inside"``),
+      fixed or on a path, as its ``container`` faces; any other wall (a particle file, an
+      open polygon, a concave container), fixed or on a path, as its wall points alone, which
+      a floating body's shapes hold out.
+    ``sources``: (key, table) of each wall source in the bodies' order (``case.config``'s);
+    ``points`` (dim, n) the wall points at rest and ``body`` their sources' indices;
+    ``motions`` and ``centres`` of each source (``motion.Bodies``'; default: none);
+    ``meshes``: {key ("walls[k]"): (vertices, faces)} of the wall meshes that do not float."""
+    from ..case.geometry import holds_fluid
+
     meshes = meshes or {}
-    out = []
+    dim = points.shape[0]
+    planes, blocks, driven = [], [], []
     for b, (key, table) in enumerate(sources):
         if table.get("floating") is not None:
             continue
-        motion = bodies.motions[b]
-        c = np.asarray(bodies.centres[b], dtype=float)
+        motion = motions[b] if motions is not None else None
+        c = np.asarray(centres[b], dtype=float) if motion is not None else np.zeros(dim)
         own = points[:, body == b]
+        outline = None  # a closed outline about c: vertices (dim, V), faces (None: in order)
+        if key in meshes:
+            verts, faces = (np.asarray(a) for a in meshes[key])
+            outline, inside = (verts.astype(float) - c[:, None], faces), table.get("fluid_side") == "inside"
+        elif key.startswith("polygon") and table["closed"]:
+            pts = np.asarray(table["points"], dtype=float)
+            outline, inside = (pts.T - c[:, None], None), holds_fluid(pts)
         shapes, container = [], []
         if key == "tank":
             if motion is None:
-                continue  # its faces are every floating body's own (``tank_planes``)
-            container = [(n, o - float(n @ c)) for n, o in tank_planes(table, c.size)]
+                planes.extend(tank_planes(table, dim))
+                continue
+            container = [(n, o - float(n @ c)) for n, o in tank_planes(table, dim)]
             own = own[:, :0]
-        elif key in meshes:
-            verts, faces = (np.asarray(a) for a in meshes[key])
-            if table.get("fluid_side") == "inside":
-                hull = _hull(verts.astype(float) - c[:, None], faces)
-                if hull is not None:
-                    container = [(-N, -o) for N, o in zip(*hull)]
-                    own = own[:, :0]
-            elif motion is None:
-                continue  # a fixed block (``fixed_blocks``)
-            else:
-                shapes = mesh_shapes(verts.astype(float) - c[:, None], faces)
         elif key.startswith("obstacle") and table.get("min") is not None:
-            if motion is None:
-                continue
             shapes = [box_faces(np.asarray(table["min"]) - c, np.asarray(table["max"]) - c)]
-        elif key.startswith("polygon") and table["closed"]:
-            if motion is None:
-                continue
-            shapes = polygon_shapes(np.asarray(table["points"], dtype=float).T - c[:, None])
-        if not (shapes or container or own.shape[1]):
-            continue
-        out.append(Driven(motion if motion is not None else Still(c.size), c, own, shapes, container))
-    return out
+        elif outline is not None and inside:
+            hull = _hull(*outline)
+            if hull is not None:  # a convex container: its faces (a concave one: its points)
+                container = [(-N, -o) for N, o in zip(*hull)]
+                own = own[:, :0]
+        elif outline is not None:
+            shapes = polygon_shapes(outline[0]) if outline[1] is None else mesh_shapes(*outline)
+        if shapes and motion is None:
+            blocks.extend(shapes)  # a fixed obstacle, in the world's frame
+        elif shapes or container or own.shape[1]:
+            driven.append(Driven(motion if motion is not None else Still(dim), c, own, shapes, container))
+    return planes, blocks, driven
 
 
 def _hull(verts, faces=None):
@@ -1265,23 +1274,3 @@ def mesh_shapes(verts, faces):
         return [] if order is None else polygon_shapes(v[:, order])
     hull = _hull(v, faces)
     return [hull] if hull is not None else [MeshShape(v, faces)]
-
-
-def fixed_blocks(case, meshes=None):
-    """The obstacles a floating body stays out of: the case's obstacle boxes and closed
-    polygons that neither float nor move, as (N, o) half-spaces (inside where N x < o), a
-    concave polygon as its convex pieces (N, o, exposed: ``convex_pieces``); and its fixed
-    closed wall meshes with the fluid outside (``meshes``: {"walls[k]": (vertices (dim, V),
-    faces)}): a convex one as its faces, a concave 3D one as itself (``MeshShape``), a concave
-    2D outline as its pieces (a container mesh, a particle file: ``driven_obstacles``)."""
-    out = []
-    for k, w in enumerate(case["walls"]):
-        if (meshes or {}).get(f"walls[{k}]") is not None and w.get("motion") is None and w["fluid_side"] == "outside":
-            out.extend(mesh_shapes(*meshes[f"walls[{k}]"]))
-    for b in case["obstacle"]:
-        if b.get("min") is not None and b.get("floating") is None and b.get("motion") is None:
-            out.append(box_faces(b["min"], b["max"]))
-    for b in case.get("polygon", []):
-        if b["closed"] and b.get("floating") is None and b.get("motion") is None:
-            out.extend(polygon_shapes(np.asarray(b["points"], dtype=float).T))
-    return out

@@ -115,6 +115,14 @@ def _in_polygon(x, pts, margin):
     return inside | (_outline_distance(x, pts) < margin) if margin > 0 else inside
 
 
+def holds_fluid(points):
+    """Whether a closed polygon ``points`` ((M, 2), in order) holds its fluid inside: its
+    points run counter-clockwise (the fluid on the left of the direction of travel, as on
+    every polygon wall); a clockwise one is a body, with the fluid outside."""
+    pts = np.asarray(points, dtype=float)
+    return bool(np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1]) > 0)
+
+
 def obstacle_particles(box, dp, layers):
     """A solid box, sampled ``layers`` deep from its faces (its core is never reached)."""
     lo = np.asarray(box["min"], dtype=float)
@@ -135,8 +143,7 @@ def polygon_particles(points, dp, layers, phase):
     hi = phase + dp * np.ceil((pts.max(axis=0) + t - phase) / dp)
     x = lattice(lo, hi, dp)
     inside = _in_polygon(x, pts, 0.0)
-    clockwise = np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1]) < 0
-    return x[:, (inside if clockwise else ~inside) & (_outline_distance(x, pts) < t)]
+    return x[:, (~inside if holds_fluid(pts) else inside) & (_outline_distance(x, pts) < t)]
 
 
 def _outline_distance(x, pts):
@@ -423,9 +430,13 @@ def build(case, column=None):
             raise CaseError(f"{src}: fluid[{k}]: block is thinner than dp = {dp}, it holds no particle")
         for box in case["obstacle"]:  # obstacles displace the fluid they overlap
             x = x[:, ~_inside(x, np.asarray(box["min"]) - 0.5 * dp, np.asarray(box["max"]) + 0.5 * dp, 1e-6 * dp)]
-        for poly in case["polygon"]:  # and closed polygons (a body's outline)
+        for poly in case["polygon"]:  # and closed polygons: a body's inside, a container's outside
             if poly["closed"]:
-                x = x[:, ~_in_polygon(x, np.asarray(poly["points"], dtype=float), 0.5 * dp * (1 - 1e-6))]
+                pts = np.asarray(poly["points"], dtype=float)
+                if holds_fluid(pts):
+                    x = x[:, _in_polygon(x, pts, 0.0) & (_outline_distance(x, pts) >= 0.5 * dp * (1 - 1e-6))]
+                else:
+                    x = x[:, ~_in_polygon(x, pts, 0.5 * dp * (1 - 1e-6))]
         xs.append(x)
         vs.append(np.stack([evaluate(str(c), x) for c in (block["velocity"] or [0.0] * dim)]))
         tops.append(np.full(x.shape[1], block["max"][-1]))
@@ -434,6 +445,9 @@ def build(case, column=None):
     fluid_x = np.concatenate(xs, axis=1)
     fluid_v = np.concatenate(vs, axis=1)
     if fluid_x.shape[1] == 0:
+        if any(p["closed"] for p in case["polygon"]):
+            raise CaseError(f"{src}: polygon: the obstacles and closed polygons leave no fluid particle (a polygon "
+                            "holds its fluid on the left of its points: inside when they run counter-clockwise)")
         raise CaseError(f"{src}: obstacle: the obstacles cover all the fluid; no fluid particle is left")
 
     d = case["domain"]

@@ -13,7 +13,7 @@ from ..backends.grid import Grid
 from ..physics.integrators import INTEGRATORS, SPEC_SCHEMES
 from ..physics.kernels import SUPPORT, kernel_numpy, kernel_params, smoothing_length
 from ..models.wcsph import WCSPH
-from ..boundaries.floating import driven_obstacles, fixed_blocks, tank_planes
+from ..boundaries.floating import wall_contacts
 from ..boundaries.motion import Bodies
 from ..boundaries.open_boundary import OpenBoundaries
 from ..backends.particles import ParticleSet
@@ -89,16 +89,14 @@ def build(case, backend, comm):
     body = wall0.pop("body")
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,
                     _floating_bodies(case), float(np.linalg.norm(case["physics"]["gravity"])))
-    meshes = _meshes(case) if bodies.floating else {}
-    tank = case["tank"]
-    planes = tank_planes(tank, dim) if tank is not None and tank["motion"] is None else []  # the faces a floating body meets
-    # the fixed obstacles it stays out of
-    blocks = fixed_blocks(case, meshes) if bodies.floating else []
-    for b, f in bodies.floating.items():
-        f.meet(wall0["x"][:, body == b], planes, blocks)
-    # every other wall a floating body meets (``floating.Driven``): on a prescribed path, a
-    # container, a wall of points
-    bodies.driven = driven_obstacles(_wall_sources(case), bodies, wall0["x"], body, meshes) if bodies.floating else []
+    if bodies.floating:  # the walls a floating body meets: the fixed tank's faces, the fixed
+        # obstacles it stays out of, and every other wall (``floating.Driven``)
+        planes, blocks, bodies.driven = wall_contacts(_wall_sources(case), wall0["x"], body, bodies.motions,
+                                                      bodies.centres, _meshes(case))
+        for b, f in bodies.floating.items():
+            f.meet(wall0["x"][:, body == b], planes, blocks)
+    else:
+        bodies.driven = []
     walls = ParticleSet("walls", dim, {k: be.to_device(a.astype(dtype)) for k, a in wall0.items()})
     walls.add("v", "vector", dtype, be)
     walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)
