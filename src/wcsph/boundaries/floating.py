@@ -126,6 +126,14 @@ def box_properties(lo, hi):
     return vol, c, vol / 12.0 * np.diag([e[1] ** 2 + e[2] ** 2, e[0] ** 2 + e[2] ** 2, e[0] ** 2 + e[1] ** 2])
 
 
+def holds_fluid(points):
+    """Whether a closed polygon ``points`` ((M, 2), in order) holds its fluid inside: its
+    points run counter-clockwise (the fluid on the left of the direction of travel, as on
+    every polygon wall); a clockwise one is a body, with the fluid outside."""
+    pts = np.asarray(points, dtype=float)
+    return bool(np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1]) > 0)
+
+
 def polygon_properties(points, segments=None):
     """(area, centroid, polar moment per unit density about the centroid) of a closed simple
     polygon (either orientation): its ``points`` in order, or the closed outline of
@@ -1200,8 +1208,6 @@ def wall_contacts(sources, points, body, motions=None, centres=None, meshes=None
     ``points`` (dim, n) the wall points at rest and ``body`` their sources' indices;
     ``motions`` and ``centres`` of each source (``motion.Bodies``'; default: none);
     ``meshes``: {key ("walls[k]"): (vertices, faces)} of the wall meshes that do not float."""
-    from ..case.geometry import holds_fluid
-
     meshes = meshes or {}
     dim = points.shape[0]
     planes, blocks, driven = [], [], []

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from ..physics import integrators, slots
 from ..errors import CaseError
-from ..boundaries.floating import FLOATING
+from ..boundaries.floating import FLOATING, holds_fluid
 from ..boundaries.motion import MOTION
 from ..boundaries.open_boundary import OPEN_BOUNDARY
 from ..boundaries.open_boundary import check as check_open_boundaries
@@ -354,12 +354,9 @@ def validate(data, src="<case>"):
             _fail(src, f"{key}.floating.rotation", "a hinged body that cannot turn cannot move: free a rotation")
         if key.startswith("polygon") and not b["closed"]:
             _fail(src, f"{key}.closed", "a floating polygon must be closed (its area gives its mass)")
-        if key.startswith("polygon"):
-            q = b["points"]
-            twice_area = sum(q[k][0] * q[(k + 1) % len(q)][1] - q[(k + 1) % len(q)][0] * q[k][1] for k in range(len(q)))
-            if twice_area > 0:
-                _fail(src, f"{key}.points", "a floating polygon's points must run clockwise: the fluid is on "
-                      "the left of a polygon wall, and a body's fluid is outside it")
+        if key.startswith("polygon") and holds_fluid(b["points"]):
+            _fail(src, f"{key}.points", "a floating polygon's points must run clockwise: the fluid is on "
+                  "the left of a polygon wall, and a body's fluid is outside it")
     names = [(key, b["name"]) for key, b in _wall_sources(case) if b["name"]]
     for k, (key, name) in enumerate(names):
         if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):

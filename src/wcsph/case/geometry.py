@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..boundaries.floating import holds_fluid
 from ..errors import CaseError
 from ..io.expressions import evaluate
 from ..io.readers import GeometryError, face_elements, inside, read_points, read_surface, surface_distance
@@ -113,14 +114,6 @@ def _in_polygon(x, pts, margin):
         px < a[:, 0] + (py - a[:, 1]) * (b[:, 0] - a[:, 0]) / np.where(b[:, 1] != a[:, 1], b[:, 1] - a[:, 1], 1.0))
     inside = crosses.sum(axis=1) % 2 == 1
     return inside | (_outline_distance(x, pts) < margin) if margin > 0 else inside
-
-
-def holds_fluid(points):
-    """Whether a closed polygon ``points`` ((M, 2), in order) holds its fluid inside: its
-    points run counter-clockwise (the fluid on the left of the direction of travel, as on
-    every polygon wall); a clockwise one is a body, with the fluid outside."""
-    pts = np.asarray(points, dtype=float)
-    return bool(np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1]) > 0)
 
 
 def obstacle_particles(box, dp, layers):
