@@ -32,3 +32,20 @@ def martin_moyce_errors():
         return ref_T, err
 
     return errors
+
+
+@pytest.fixture
+def box_stl(tmp_path):
+    """f(name, lo, hi) -> the path of a closed STL box [lo, hi] (12 triangles) in tmp_path."""
+    import meshio
+    import numpy as np
+
+    def write(name, lo, hi):
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+        tri = np.array([t for q in quads for t in ([q[0], q[1], q[2]], [q[0], q[2], q[3]])])
+        path = tmp_path / name
+        meshio.write(path, meshio.Mesh(corners, [("triangle", tri)]))
+        return str(path)
+
+    return write

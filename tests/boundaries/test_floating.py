@@ -1058,17 +1058,11 @@ def test_a_case_box_pushed_by_a_moving_obstacle_stays_out_of_it(tmp_path):
     assert float(last["box_y"]) == pytest.approx(0.1, abs=1e-9)
 
 
-def test_a_box_pushed_by_a_moving_3d_wall_mesh_stays_out_of_it(tmp_path):
+def test_a_box_pushed_by_a_moving_3d_wall_mesh_stays_out_of_it(tmp_path, box_stl):
     """The case above in 3D with the pusher a closed wall mesh on a prescribed path (a block
     read from an STL file, 0.5 m/s along x): the floating box on the floor is pushed ahead of
     it, face on face within 1e-9 m, at its speed."""
-    import meshio
-
-    corners = np.array([[x, y, z] for x in (0.2, 0.45) for y in (0.3, 0.7) for z in (0.0, 0.4)])
-    quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
-    tri = np.array([t for q in quads for t in ([q[0], q[1], q[2]], [q[0], q[2], q[3]])])
-    path = tmp_path / "pusher.stl"
-    meshio.write(path, meshio.Mesh(corners, [("triangle", tri)]))
+    path = box_stl("pusher.stl", [0.2, 0.3, 0.0], [0.45, 0.7, 0.4])
     case = _free_fall_case(3)
     case["time"]["end"] = 0.5
     case["fluid"] = [{"min": [1.8, 0.0, 0.0], "max": [2.0, 2.0, 0.2]}]
@@ -1083,18 +1077,7 @@ def test_a_box_pushed_by_a_moving_3d_wall_mesh_stays_out_of_it(tmp_path):
     assert float(last["box_z"]) == pytest.approx(0.1, abs=1e-9)
 
 
-def _box_mesh(path, lo, hi):
-    """A closed STL box [lo, hi]."""
-    import meshio
-
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
-    tri = np.array([t for q in quads for t in ([q[0], q[1], q[2]], [q[0], q[2], q[3]])])
-    meshio.write(path, meshio.Mesh(corners, [("triangle", tri)]))
-    return str(path)
-
-
-def test_a_box_dropped_in_a_tank_mesh_lands_on_its_floor(tmp_path):
+def test_a_box_dropped_in_a_tank_mesh_lands_on_its_floor(tmp_path, box_stl):
     """The tank as a closed wall mesh with the fluid inside (``fluid_side = "inside"``, a
     1 m cube) and a floating box dropped in it: the box stays where it was across and lands
     on the mesh's floor (at rest, its bottom on the floor within 1e-9 m). Before the change
@@ -1103,7 +1086,7 @@ def test_a_box_dropped_in_a_tank_mesh_lands_on_its_floor(tmp_path):
     case = _free_fall_case(3)
     case.pop("tank")
     case["domain"] = {"min": [-0.2] * 3, "max": [1.2] * 3}
-    case["walls"] = [{"mesh": _box_mesh(tmp_path / "tank.stl", [0.0] * 3, [1.0] * 3), "fluid_side": "inside"}]
+    case["walls"] = [{"mesh": box_stl("tank.stl", [0.0] * 3, [1.0] * 3), "fluid_side": "inside"}]
     case["fluid"] = [{"min": [0.85, 0.0, 0.0], "max": [1.0, 1.0, 0.1]}]
     case["obstacle"].append({"min": [0.75, 0.0, 0.0], "max": [0.8, 1.0, 0.3]})  # a dam: no water under the box
     case["obstacle"][0].update(min=[0.4, 0.4, 0.5], max=[0.6, 0.6, 0.7])

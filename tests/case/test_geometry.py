@@ -88,6 +88,33 @@ def test_a_polygon_that_leaves_no_fluid_says_which_way_it_holds_it():
         geometry.build(case)
 
 
+@pytest.mark.parametrize("model", ["classic", "bi"])
+def test_wall_meshes_carve_the_fluid_blocks_as_obstacles_do(model, box_stl):
+    """A block of fluid with a closed body mesh in it (``fluid_side = "outside"``) and a tank
+    mesh smaller than the block (``"inside"``): the fluid keeps exactly the block's lattice
+    points inside the tank and outside the body, each at least dp/2 from both surfaces (an
+    obstacle box in the body's place would leave the same points). Before the change the
+    blocks ignored wall meshes: the body was full of water and water stood outside the tank."""
+    dp = 0.1
+    case = validate({"dim": 3, "dp": dp, "time": {"end": 0.1}, "model": {"name": model},
+                     "domain": {"min": [-0.6] * 3, "max": [1.6] * 3},
+                     "fluid": [{"min": [-0.2] * 3, "max": [1.2, 1.2, 0.6]}],
+                     "walls": [{"mesh": box_stl("tank.stl", [0.0] * 3, [1.0] * 3), "fluid_side": "inside"},
+                               {"mesh": box_stl("body.stl", [0.3] * 3, [0.7, 0.7, 1.0])}]})
+    fluid, _, _, _ = geometry.build(case)
+    want = geometry.lattice([0.0] * 3, [1.0, 1.0, 0.6], dp)
+    body = geometry._inside(want, np.array([0.3] * 3) - 0.5 * dp, np.array([0.7, 0.7, 1.0]) + 0.5 * dp, 1e-6 * dp)
+    assert _set(fluid["x"]) == _set(want[:, ~body]) and fluid["x"].shape[1] == 600 - 4 * 4 * 3
+
+
+def test_a_wall_mesh_that_leaves_no_fluid_says_which_side_it_holds(box_stl):
+    case = validate({"dim": 3, "dp": 0.1, "time": {"end": 0.1}, "domain": {"min": [-0.6] * 3, "max": [1.6] * 3},
+                     "fluid": [{"min": [0.2] * 3, "max": [0.8] * 3}],
+                     "walls": [{"mesh": box_stl("body.stl", [0.0] * 3, [1.0] * 3)}]})
+    with pytest.raises(CaseError, match=r"walls: .*fluid_side"):
+        geometry.build(case)
+
+
 def test_an_open_polygon_with_wall_particles_is_one_line():
     case = validate(dict(CLASSIC, polygon=[{"points": [[0.2, 0.1], [0.6, 0.1]], "closed": False}]))
     with pytest.raises(CaseError, match=r"polygon\[0\]\.closed: an open polygon has no solid side"):

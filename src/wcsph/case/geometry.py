@@ -290,6 +290,27 @@ def _file_fluid(case, k, block, dp):
     return pts, None, None
 
 
+def _carved_by_meshes(case, x, dp):
+    """The lattice points x (dim, N) of a fluid block that the closed ``[[walls]]`` meshes
+    leave to the fluid, as obstacles and polygons leave them: outside a body's mesh
+    (``fluid_side = "outside"``) and inside a container's (``"inside"``), at least dp/2 from
+    either surface. Only the points within a mesh's box (grown by dp/2) are tested."""
+    for k, w in enumerate(case["walls"]):
+        if not w.get("mesh") or x.shape[1] == 0:
+            continue
+        verts, faces = _read(case, f"walls[{k}].mesh", read_surface, _path(case, w["mesh"]), case["dim"])
+        lo, hi = verts.min(axis=1) - 0.5 * dp, verts.max(axis=1) + 0.5 * dp
+        near = np.all((x >= lo[:, None]) & (x <= hi[:, None]), axis=0)
+        keep = ~near if w["fluid_side"] == "outside" else np.zeros(x.shape[1], dtype=bool)
+        y = x[:, near]
+        if y.shape[1]:
+            ins = inside(y, verts, faces)
+            clear = surface_distance(y, verts, faces, dp) >= 0.5 * dp * (1 - 1e-6)
+            keep[near] = clear & (ins if w["fluid_side"] == "inside" else ~ins)
+        x = x[:, keep]
+    return x
+
+
 def wall_sources(case):
     """(name, motion, key) of every wall source: the tank, the obstacles, the polygons; a
     body each (``motion.Bodies``)."""
@@ -430,6 +451,7 @@ def build(case, column=None):
                     x = x[:, _in_polygon(x, pts, 0.0) & (_outline_distance(x, pts) >= 0.5 * dp * (1 - 1e-6))]
                 else:
                     x = x[:, ~_in_polygon(x, pts, 0.5 * dp * (1 - 1e-6))]
+        x = _carved_by_meshes(case, x, dp)
         xs.append(x)
         vs.append(np.stack([evaluate(str(c), x) for c in (block["velocity"] or [0.0] * dim)]))
         tops.append(np.full(x.shape[1], block["max"][-1]))
@@ -441,6 +463,9 @@ def build(case, column=None):
         if any(p["closed"] for p in case["polygon"]):
             raise CaseError(f"{src}: polygon: the obstacles and closed polygons leave no fluid particle (a polygon "
                             "holds its fluid on the left of its points: inside when they run counter-clockwise)")
+        if any(w.get("mesh") for w in case["walls"]):
+            raise CaseError(f"{src}: walls: the obstacles and wall meshes leave no fluid particle (a mesh holds "
+                            "its fluid on its fluid_side: \"inside\" a tank, \"outside\" a body)")
         raise CaseError(f"{src}: obstacle: the obstacles cover all the fluid; no fluid particle is left")
 
     d = case["domain"]
