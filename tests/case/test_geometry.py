@@ -115,6 +115,22 @@ def test_a_wall_mesh_that_leaves_no_fluid_says_which_side_it_holds(box_stl):
         geometry.build(case)
 
 
+@pytest.mark.parametrize("points,closed,message", [
+    ([[0.5, 0.5], [0.6, 0.5]], True, "at least three points"),
+    ([[0.5, 0.5], [0.7, 0.7], [0.7, 0.5], [0.5, 0.7]], True, r"sides 0 \(0 -> 1\) and 2 \(2 -> 3\) cross"),
+    ([[0.5, 0.5], [0.6, 0.5], [0.7, 0.5]], True, "encloses no area"),
+    ([[0.5, 0.5], [0.6, 0.5], [0.6, 0.5], [0.6, 0.6]], True, "points 1 and 2 are the same point"),
+    ([[0.5, 0.5], [0.5, 0.5]], False, "points 0 and 1 are the same point"),
+])
+def test_a_polygon_that_makes_no_wall_is_one_line_naming_its_points(points, closed, message):
+    """Points that make no wall: a side of no length; closed, fewer than three points, no
+    area, or sides that cross (a bow tie: its fluid side would change along it). Before, each
+    ran, with walls of no area or a fluid side that changed halfway."""
+    with pytest.raises(CaseError, match=r"polygon\[0\]\.points: .*" + message):
+        validate(dict(CLASSIC, polygon=[{"points": points, "closed": closed}]))
+    validate(dict(CLASSIC, polygon=[{"points": [[0.5, 0.5], [0.5, 0.7], [0.7, 0.7], [0.7, 0.5]], "closed": True}]))
+
+
 def test_an_open_polygon_with_wall_particles_is_one_line():
     case = validate(dict(CLASSIC, polygon=[{"points": [[0.2, 0.1], [0.6, 0.1]], "closed": False}]))
     with pytest.raises(CaseError, match=r"polygon\[0\]\.closed: an open polygon has no solid side"):

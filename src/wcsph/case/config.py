@@ -280,6 +280,10 @@ def validate(data, src="<case>"):
         _fail(src, *errors[0])
     if case["polygon"] and dim != 2:
         _fail(src, "polygon", "polygon walls are 2D only; use tank and obstacle boxes in 3D")
+    for k, poly in enumerate(case["polygon"]):
+        problem = _outline_problem(poly["points"], poly["closed"])
+        if problem:
+            _fail(src, f"polygon[{k}].points", problem)
     for k, probe in enumerate(case["probes"]):
         if sum(p["name"] == probe["name"] for p in case["probes"]) > 1:
             _fail(src, f"probes[{k}].name", f"{probe['name']!r} is used by two probes")
@@ -386,6 +390,46 @@ def validate(data, src="<case>"):
     case["_source"] = src
     case["_warnings"] = warnings
     return case
+
+
+def _outline_problem(points, closed):
+    """Why a polygon's ``points`` make no wall (None when they do): two points in a row the
+    same (a side of no length); closed, fewer than three points, no area, or two sides that
+    cross (its inside, the side its fluid is on, is then not one region)."""
+    import numpy as np
+
+    a = np.asarray(points, dtype=float)
+    b = np.roll(a, -1, axis=0) if closed else a[1:]
+    a = a if closed else a[:-1]
+    size = float(np.max(np.ptp(np.vstack([a, b]), axis=0)))
+    d = b - a
+    short = np.flatnonzero(np.hypot(d[:, 0], d[:, 1]) <= 1e-12 * size)
+    if short.size or size == 0.0:
+        k = int(short[0]) if short.size else 0
+        return f"points {k} and {(k + 1) % len(points)} are the same point: a side of no length"
+    if not closed:
+        return None
+    if len(points) < 3:
+        return "a closed polygon needs at least three points"
+
+    def cross(u, v):
+        return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+    m = len(a)
+    for i0 in range(0, m, 256):  # every pair of sides that do not share a point, in blocks
+        i = np.arange(i0, min(m, i0 + 256))[:, None]
+        j = np.arange(m)[None, :]
+        o1, o2 = cross(d[i], a[j] - a[i]), cross(d[i], b[j] - a[i])
+        o3, o4 = cross(d[j], a[i] - a[j]), cross(d[j], b[i] - a[j])
+        apart = (j > i + 1) & ~((i == 0) & (j == m - 1))
+        hit = np.argwhere(apart & (o1 * o2 < 0) & (o3 * o4 < 0))
+        if hit.size:
+            s, t = int(i0 + hit[0][0]), int(hit[0][1])
+            return (f"sides {s} ({s} -> {(s + 1) % m}) and {t} ({t} -> {(t + 1) % m}) cross: a closed polygon "
+                    "must not cross itself (the side its fluid is on would change along it)")
+    if abs(float(np.sum(a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]))) <= 1e-12 * size * size:
+        return "the closed polygon encloses no area (its points lie on a line)"
+    return None
 
 
 def _wall_sources(case):
