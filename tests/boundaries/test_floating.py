@@ -1118,6 +1118,31 @@ def test_a_moving_tank_pushes_the_box_inside_it(tmp_path):
     assert float(last["box_y"]) == pytest.approx(0.1, abs=1e-9)
 
 
+@pytest.mark.parametrize("where,ok", [("through the tank's wall", False), ("in the other box", False),
+                                      ("in a fixed block", False), ("on the other box, face on face", True)])
+def test_a_body_that_starts_inside_a_wall_or_a_body_is_a_case_error(where, ok, tmp_path):
+    """A floating box placed through the tank's wall, overlapping another floating box or
+    inside a fixed obstacle is one line naming it: the contacts would have pushed it out at
+    its first step, a jump the case did not ask for (before, it ran so). Face on face with
+    another body it is placed clear, and runs."""
+    case = _free_fall_case(2)
+    case["time"]["end"] = 0.002
+    other = {"name": "top", "min": [1.4, 1.4], "max": [1.6, 1.6], "floating": {"density": 500.0}}
+    if where == "through the tank's wall":
+        case["obstacle"][0].update(min=[1.9, 1.2], max=[2.1, 1.4])
+    elif where == "in the other box":
+        case["obstacle"].append(dict(other, min=[1.45, 1.35], max=[1.65, 1.55]))
+    elif where == "in a fixed block":
+        case["obstacle"].append({"min": [1.3, 1.3], "max": [1.7, 1.35]})
+    else:
+        case["obstacle"].append(other)
+    if ok:
+        wcsph.run(case, output=tmp_path, progress=False)
+        return
+    with pytest.raises(CaseError, match=r"obstacle\[\d\]: the floating body starts inside a wall or another body"):
+        wcsph.run(case, output=tmp_path, progress=False)
+
+
 @pytest.mark.parametrize("shape", ["convex", "concave"])
 def test_a_box_dropped_in_a_container_polygon_lands_on_its_floor(shape, tmp_path):
     """The tank as a closed polygon running counter-clockwise (the fluid inside), with no

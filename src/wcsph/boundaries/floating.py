@@ -795,6 +795,29 @@ def collide(a, b):
     return touched
 
 
+#: sweeps over the pairs of floating bodies at most, per step: a stack of bodies on the floor
+#: passes each push on to the floor through the others, a part per sweep
+SWEEPS = 16
+
+
+def part(moving, driven):
+    """The floating bodies ``moving`` parted from each other and from the walls ``driven``
+    (``Driven``, placed where they are now): Gauss-Seidel sweeps over the pairs (``collide``)
+    until none touches or ``SWEEPS``; a body pushed by another is put back inside the tank's
+    faces and out of the fixed obstacles (``settle``) at once."""
+    pairs = [(a, b) for i, a in enumerate(moving) for b in moving[i + 1:] + list(driven)]
+    for _ in range(SWEEPS if pairs else 0):
+        touched = False
+        for a, b in pairs:
+            if collide(a, b):
+                touched = True
+                for body in (a, b):  # a push must not take a body through the tank or an obstacle
+                    if body not in driven:
+                        body.settle()
+        if not touched:
+            break
+
+
 def _keep_inside(p, q):
     """Body p's wall points back inside the faces of the container q (``Driven.container``):
     the deepest point past a face puts p back on it (along p's free axes; q does not move),
