@@ -308,7 +308,7 @@ def _sps_sim(name, dim, dp, v_of_x):
     _set(sim, "v", v_of_x(x0))
     sim.walls["v"] = sim.backend.to_device(np.ascontiguousarray(v_of_x(sim.host(sim.walls, "x")[0])))
     sim.evaluate(sim.P)
-    x, a, tau = sim.host(sim.fluid, "x", "dvdt", "tau")
+    x, a, tau = sim.host(sim.fluid, "x", "dvdt", "tau_rho2")
     return x, a, tau, np.min(np.concatenate([x, 1.0 - x]), axis=0)
 
 

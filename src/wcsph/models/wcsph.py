@@ -49,7 +49,7 @@ FLUID_FIELDS = {
     "dvdt": ("vector", None), "rho": ("scalar", None), "p": ("scalar", None), "pr": ("scalar", None),
     "vol": ("scalar", None), "drhodt": ("scalar", "continuity"), "shepard": ("scalar", "consistent"),
     "L": ("matrix", "corrected"), "corr": ("vector", "after_step"), "rho_corr": ("scalar", "after_step"),
-    "c": ("scalar", "sound"), "tau": ("symmetric", "stress"),
+    "c": ("scalar", "sound"), "tau_rho2": ("symmetric", "stress"),
 }
 #: the flags that add optional fields, in the order the view classes are named by
 _FLAGS = ("continuity", "consistent", "corrected", "after_step", "sound", "stress")

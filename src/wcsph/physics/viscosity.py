@@ -149,7 +149,7 @@ def make_sps_stress(ctx):
     gradient G / gamma (Smagorinsky's eddy viscosity with Yoshizawa's isotropic part, in the
     form of Dalrymple & Rogers 2006 and DualSPHysics): S = (G + G^T) / 2,
     |S| = sqrt(2 S:S), nu_t = (C_s dp)^2 |S|,
-    tau / rho = nu_t (2 S - 2/3 tr(S) I) - 2/3 C_I dp^2 |S|^2 I. Stored as tau / rho^2 (as
+    tau / rho = nu_t (2 S - 2/3 tr(S) I) - 2/3 C_I dp^2 |S|^2 I. Stored as tau / rho^2 in ``tau_rho2`` (as
     ``pr`` holds p / rho^2, what the pair term reads), its components xx, xy, yy (2D) or xx,
     xy, xz, yy, yz, zz (3D)."""
     dim, zero, one = ctx.dim, ctx.zero, ctx.dtype(1)
@@ -170,9 +170,9 @@ def make_sps_stress(ctx):
             nut = P.sps_cs2 * mag
             iso = -two * third * nut * (sxx + syy) - P.sps_ci * mag * mag
             c = two * nut * r
-            I.tau[0, i] = c * sxx + iso * r
-            I.tau[1, i] = c * sxy
-            I.tau[2, i] = c * syy + iso * r
+            I.tau_rho2[0, i] = c * sxx + iso * r
+            I.tau_rho2[1, i] = c * sxy
+            I.tau_rho2[2, i] = c * syy + iso * r
         else:
             sxx, syy, szz = acc[0] * q, acc[4] * q, acc[8] * q
             sxy, sxz, syz = (acc[1] + acc[3]) * q / two, (acc[2] + acc[6]) * q / two, (acc[5] + acc[7]) * q / two
@@ -181,12 +181,12 @@ def make_sps_stress(ctx):
             nut = P.sps_cs2 * mag
             iso = -two * third * nut * (sxx + syy + szz) - P.sps_ci * mag * mag
             c = two * nut * r
-            I.tau[0, i] = c * sxx + iso * r
-            I.tau[1, i] = c * sxy
-            I.tau[2, i] = c * sxz
-            I.tau[3, i] = c * syy + iso * r
-            I.tau[4, i] = c * syz
-            I.tau[5, i] = c * szz + iso * r
+            I.tau_rho2[0, i] = c * sxx + iso * r
+            I.tau_rho2[1, i] = c * sxy
+            I.tau_rho2[2, i] = c * sxz
+            I.tau_rho2[3, i] = c * syy + iso * r
+            I.tau_rho2[4, i] = c * syz
+            I.tau_rho2[5, i] = c * szz + iso * r
 
     return init, store
 
@@ -200,15 +200,15 @@ def make_sps(ctx):
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
         f = I.rho[i] * J.m[j] * grad(r, P)
-        xx = I.tau[0, i] + J.tau[0, j]
-        xy = I.tau[1, i] + J.tau[1, j]
+        xx = I.tau_rho2[0, i] + J.tau_rho2[0, j]
+        xy = I.tau_rho2[1, i] + J.tau_rho2[1, j]
         if dim == 2:
-            yy = I.tau[2, i] + J.tau[2, j]
+            yy = I.tau_rho2[2, i] + J.tau_rho2[2, j]
             return add_force(acc, f * (xx * dx + xy * dy), f * (xy * dx + yy * dy), f * dz)
-        xz = I.tau[2, i] + J.tau[2, j]
-        yy = I.tau[3, i] + J.tau[3, j]
-        yz = I.tau[4, i] + J.tau[4, j]
-        zz = I.tau[5, i] + J.tau[5, j]
+        xz = I.tau_rho2[2, i] + J.tau_rho2[2, j]
+        yy = I.tau_rho2[3, i] + J.tau_rho2[3, j]
+        yz = I.tau_rho2[4, i] + J.tau_rho2[4, j]
+        zz = I.tau_rho2[5, i] + J.tau_rho2[5, j]
         return add_force(acc, f * (xx * dx + xy * dy + xz * dz), f * (xy * dx + yy * dy + yz * dz),
                          f * (xz * dx + yz * dy + zz * dz))
 
@@ -283,7 +283,7 @@ def _sps_passes(ctx, q):
     init, store = make_sps_stress(ctx)
     elements = q.boundary == "elements"
     wall = make_velocity_gradient(ctx, elements=elements, shepard=elements)
-    return [FluidPass(init, make_velocity_gradient(ctx, shepard=elements), store, wall=wall, writes=("tau",))]
+    return [FluidPass(init, make_velocity_gradient(ctx, shepard=elements), store, wall=wall, writes=("tau_rho2",))]
 
 
 def _sps_values(q):
