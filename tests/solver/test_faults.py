@@ -133,6 +133,11 @@ end = 0.01
     (BASE_TOML, ["-o", "UNDER_FILE"], "cannot create"),
     (BASE_TOML, ["--set", "time.end=-1"], "--set time.end: must be positive, got -1"),
     (BASE_TOML.replace('name = "x"', 'name = "../../elsewhere"'), [], "name: must be letters, digits"),
+    (BASE_TOML + '[[probes]]\nname = "time"\nkind = "level"\nposition = [0.2, 0.0]\n', [],
+     "probes[0].name: the column 'time' of probes.csv would be written twice"),
+    (BASE_TOML + '[[obstacle]]\nname = "box"\nmin = [0.7, 0.0]\nmax = [0.8, 0.1]\n'
+     '[[probes]]\nname = "box_fx"\nkind = "pressure"\nposition = [0.2, 0.1]\n', [],
+     "probes[0].name: the column 'box_fx' of probes.csv would be written twice"),
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, case_text, args, message):
     if "cuda" in args:

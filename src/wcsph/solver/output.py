@@ -9,6 +9,7 @@ import numpy as np
 
 from ..io import probes, surface, vtk
 from ..io.grids import GridSampler
+from ..errors import CaseError
 from .loads import body_columns, body_loads
 
 
@@ -36,6 +37,7 @@ class Output:
         if oc["surge_front"]:
             cols.append("surge_front")
         cols += point_probes.columns() + body_columns(bodies, state.dim)
+        _columns_once(state.case, cols)
         self.stats = integrator.columns()  # per-step figures of the scheme (midpoint, RK45)
         cols += self.stats + (["midpoint_iterations_max"] if "midpoint_iterations" in self.stats else [])
         self.probes = self.steps_log = None
@@ -218,3 +220,17 @@ class Output:
 def _frame(name):
     """The frame a file belongs to: ``fluid_0003`` of fluid_0003.vtu, .pvtu and its pieces."""
     return re.sub(r"(_p[0-9]+)?\.p?vtu$", "", name)
+
+
+def _columns_once(case, cols):
+    """A case error naming the probe (or else the body) whose column of probes.csv another
+    column already has: a reader would take one for the other."""
+    seen = set()
+    for c in cols:
+        if c in seen:
+            who = [f"probes[{k}].name" for k, p in enumerate(case["probes"])
+                   if c in (p["name"], f"{p['name']}_volume_flux", f"{p['name']}_mass_flux")]
+            raise CaseError(f"{case['_source']}: {who[0] if who else 'name'}: the column {c!r} of probes.csv "
+                            "would be written twice (a run's own column, another probe's or a body's); "
+                            "give it another name")
+        seen.add(c)
