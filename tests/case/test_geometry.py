@@ -88,17 +88,20 @@ def test_a_polygon_that_leaves_no_fluid_says_which_way_it_holds_it():
         geometry.build(case)
 
 
-@pytest.mark.parametrize("model", ["classic", "bi"])
-def test_wall_meshes_carve_the_fluid_blocks_as_obstacles_do(model, box_stl):
-    """A block of fluid with a closed body mesh in it (``fluid_side = "outside"``) and a tank
-    mesh smaller than the block (``"inside"``): the fluid keeps exactly the block's lattice
-    points inside the tank and outside the body, each at least dp/2 from both surfaces (an
-    obstacle box in the body's place would leave the same points). Before the change the
-    blocks ignored wall meshes: the body was full of water and water stood outside the tank."""
+@pytest.mark.parametrize("model,source", [("classic", "box"), ("bi", "box"), ("bi", "surface")])
+def test_wall_meshes_carve_the_fluid_blocks_as_obstacles_do(model, source, box_stl):
+    """A block of fluid (a box, or a closed surface filled with the lattice) with a closed
+    body mesh in it (``fluid_side = "outside"``) and a tank mesh smaller than the block
+    (``"inside"``): the fluid keeps exactly the block's lattice points inside the tank and
+    outside the body, each at least dp/2 from both surfaces (an obstacle box in the body's
+    place would leave the same points). Before the change the blocks ignored wall meshes: the
+    body was full of water and water stood outside the tank."""
     dp = 0.1
+    block = ({"min": [-0.2] * 3, "max": [1.2, 1.2, 0.6]} if source == "box"
+             else {"surface": box_stl("water.stl", [-0.2] * 3, [1.2, 1.2, 0.6])})
     case = validate({"dim": 3, "dp": dp, "time": {"end": 0.1}, "model": {"name": model},
                      "domain": {"min": [-0.6] * 3, "max": [1.6] * 3},
-                     "fluid": [{"min": [-0.2] * 3, "max": [1.2, 1.2, 0.6]}],
+                     "fluid": [block],
                      "walls": [{"mesh": box_stl("tank.stl", [0.0] * 3, [1.0] * 3), "fluid_side": "inside"},
                                {"mesh": box_stl("body.stl", [0.3] * 3, [0.7, 0.7, 1.0])}]})
     fluid, _, _, _ = geometry.build(case)

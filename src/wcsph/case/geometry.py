@@ -290,11 +290,21 @@ def _file_fluid(case, k, block, dp):
     return pts, None, None
 
 
-def _carved_by_meshes(case, x, dp):
-    """The lattice points x (dim, N) of a fluid block that the closed ``[[walls]]`` meshes
-    leave to the fluid, as obstacles and polygons leave them: outside a body's mesh
-    (``fluid_side = "outside"``) and inside a container's (``"inside"``), at least dp/2 from
-    either surface. Only the points within a mesh's box (grown by dp/2) are tested."""
+def _carved(case, x, dp):
+    """The lattice points x (dim, N) of a fluid box or surface fill that the walls leave to
+    the fluid, each at least dp/2 from them: outside the obstacle boxes; outside a closed
+    polygon that is a body (clockwise), inside one that is a container (counter-clockwise);
+    outside a closed ``[[walls]]`` mesh with ``fluid_side = "outside"``, inside one with
+    ``"inside"`` (only the points within a mesh's box grown by dp/2 are tested)."""
+    for box in case["obstacle"]:
+        x = x[:, ~_inside(x, np.asarray(box["min"]) - 0.5 * dp, np.asarray(box["max"]) + 0.5 * dp, 1e-6 * dp)]
+    for poly in case["polygon"]:
+        if poly["closed"]:
+            pts = np.asarray(poly["points"], dtype=float)
+            if holds_fluid(pts):
+                x = x[:, _in_polygon(x, pts, 0.0) & (_outline_distance(x, pts) >= 0.5 * dp * (1 - 1e-6))]
+            else:
+                x = x[:, ~_in_polygon(x, pts, 0.5 * dp * (1 - 1e-6))]
     for k, w in enumerate(case["walls"]):
         if not w.get("mesh") or x.shape[1] == 0:
             continue
@@ -421,6 +431,8 @@ def build(case, column=None):
             x, v_file, p_file = _file_fluid(case, k, block, dp)
             if x.shape[1] == 0:
                 raise CaseError(f"{src}: fluid[{k}]: the surface encloses no lattice point of dp = {dp}")
+            if block["surface"]:  # a lattice, as a box's: cut as a box is (a point file is taken as given)
+                x = _carved(case, x, dp)
             xs.append(x)
             vs.append(np.stack([evaluate(str(c), x) for c in block["velocity"]]) if block["velocity"] is not None
                       else (v_file if v_file is not None else np.zeros_like(x)))
@@ -442,16 +454,7 @@ def build(case, column=None):
             x = lattice(block["min"], block["max"], dp)
         if x.shape[1] == 0:
             raise CaseError(f"{src}: fluid[{k}]: block is thinner than dp = {dp}, it holds no particle")
-        for box in case["obstacle"]:  # obstacles displace the fluid they overlap
-            x = x[:, ~_inside(x, np.asarray(box["min"]) - 0.5 * dp, np.asarray(box["max"]) + 0.5 * dp, 1e-6 * dp)]
-        for poly in case["polygon"]:  # and closed polygons: a body's inside, a container's outside
-            if poly["closed"]:
-                pts = np.asarray(poly["points"], dtype=float)
-                if holds_fluid(pts):
-                    x = x[:, _in_polygon(x, pts, 0.0) & (_outline_distance(x, pts) >= 0.5 * dp * (1 - 1e-6))]
-                else:
-                    x = x[:, ~_in_polygon(x, pts, 0.5 * dp * (1 - 1e-6))]
-        x = _carved_by_meshes(case, x, dp)
+        x = _carved(case, x, dp)
         xs.append(x)
         vs.append(np.stack([evaluate(str(c), x) for c in (block["velocity"] or [0.0] * dim)]))
         tops.append(np.full(x.shape[1], block["max"][-1]))
