@@ -110,6 +110,22 @@ def test_wall_meshes_carve_the_fluid_blocks_as_obstacles_do(model, source, box_s
     assert _set(fluid["x"]) == _set(want[:, ~body]) and fluid["x"].shape[1] == 600 - 4 * 4 * 3
 
 
+@pytest.mark.parametrize("model", ["classic", "bi"])
+def test_a_wall_point_file_clears_the_fluid_lattice_within_dp_2(model, tmp_path):
+    """A wall of points from a file (no solid side) across a fluid box, on the box's lattice:
+    the fluid keeps every lattice point but those within dp/2 of a wall point (the column
+    the wall stands on); before the change a fluid particle sat on each wall point."""
+    dp = 0.05
+    ys = 0.025 + dp * np.arange(10)
+    path = tmp_path / "wall.csv"
+    path.write_text("x,y,nx,ny,elementSize\n" + "".join(f"0.225,{y},1.0,0.0,{dp}\n" for y in ys))
+    case = validate(dict(CLASSIC, model={"name": model}, walls=[{"file": str(path)}]))
+    fluid, _, _, _ = geometry.build(case)
+    want = geometry.lattice([0.0, 0.0], [1.0, 0.5], dp)
+    want = want[:, np.abs(want[0] - 0.225) > 1e-9]
+    assert _set(fluid["x"]) == _set(want) and fluid["x"].shape[1] == 20 * 10 - 10
+
+
 def test_a_wall_mesh_that_leaves_no_fluid_says_which_side_it_holds(box_stl):
     case = validate({"dim": 3, "dp": 0.1, "time": {"end": 0.1}, "domain": {"min": [-0.6] * 3, "max": [1.6] * 3},
                      "fluid": [{"min": [0.2] * 3, "max": [0.8] * 3}],

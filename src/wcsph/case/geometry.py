@@ -290,12 +290,41 @@ def _file_fluid(case, k, block, dp):
     return pts, None, None
 
 
+def _clear_of(x, pts, r):
+    """Which points of x (dim, N) have no point of ``pts`` (dim, M) within r: the points hashed
+    into cells of edge r, each point of x tested against those in the 3^dim cells about its
+    own."""
+    keep = np.ones(x.shape[1], dtype=bool)
+    if not pts.shape[1] or not x.shape[1]:
+        return keep
+    lo = np.minimum(x.min(axis=1), pts.min(axis=1)) - 2 * r
+    span = np.floor((np.maximum(x.max(axis=1), pts.max(axis=1)) - lo) / r).astype(np.int64) + 3
+    stride = np.concatenate([[1], np.cumprod(span[:-1])])
+
+    def key(c):
+        return (c * stride[:, None]).sum(axis=0)
+
+    pk = key(np.floor((pts - lo[:, None]) / r).astype(np.int64))
+    order = np.argsort(pk, kind="stable")
+    pk, pts = pk[order], pts[:, order]
+    cx = np.floor((x - lo[:, None]) / r).astype(np.int64)
+    for off in np.stack(np.meshgrid(*[[-1, 0, 1]] * x.shape[0], indexing="ij")).reshape(x.shape[0], -1).T:
+        k = key(cx + off[:, None])
+        a, b = np.searchsorted(pk, k, "left"), np.searchsorted(pk, k, "right")
+        for n in range(int(np.max(b - a))):  # the n-th point of each cell, where it has one
+            has = a + n < b
+            j = a[has] + n
+            keep[np.flatnonzero(has)[np.sum((x[:, has] - pts[:, j]) ** 2, axis=0) < r * r]] = False
+    return keep
+
+
 def _carved(case, x, dp):
     """The lattice points x (dim, N) of a fluid box or surface fill that the walls leave to
     the fluid, each at least dp/2 from them: outside the obstacle boxes; outside a closed
     polygon that is a body (clockwise), inside one that is a container (counter-clockwise);
     outside a closed ``[[walls]]`` mesh with ``fluid_side = "outside"``, inside one with
-    ``"inside"`` (only the points within a mesh's box grown by dp/2 are tested)."""
+    ``"inside"`` (only the points within a mesh's box grown by dp/2 are tested); none within
+    dp/2 of a point of a ``[[walls]]`` point file (which has no solid side)."""
     for box in case["obstacle"]:
         x = x[:, ~_inside(x, np.asarray(box["min"]) - 0.5 * dp, np.asarray(box["max"]) + 0.5 * dp, 1e-6 * dp)]
     for poly in case["polygon"]:
@@ -306,6 +335,9 @@ def _carved(case, x, dp):
             else:
                 x = x[:, ~_in_polygon(x, pts, 0.5 * dp * (1 - 1e-6))]
     for k, w in enumerate(case["walls"]):
+        if w.get("file") and x.shape[1]:  # points without a solid side: none within dp/2 of one
+            pts = _read(case, f"walls[{k}].file", read_points, _path(case, w["file"]), case["dim"])["x"]
+            x = x[:, _clear_of(x, pts, 0.5 * dp * (1 - 1e-6))]
         if not w.get("mesh") or x.shape[1] == 0:
             continue
         verts, faces = _read(case, f"walls[{k}].mesh", read_surface, _path(case, w["mesh"]), case["dim"])
