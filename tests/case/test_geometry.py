@@ -126,6 +126,17 @@ def test_a_wall_point_file_clears_the_fluid_lattice_within_dp_2(model, tmp_path)
     assert _set(fluid["x"]) == _set(want) and fluid["x"].shape[1] == 20 * 10 - 10
 
 
+def test_an_open_polygon_clears_the_fluid_lattice_within_dp_2():
+    """A wall polyline across a fluid box, off the lattice by a tenth of dp: the fluid keeps
+    the box's lattice points at least dp/2 from it (before, particles sat on the wall)."""
+    dp = 0.05
+    case = validate(dict(CLASSIC, model={"name": "bi"}, polygon=[{"points": [[0.23, 0.0], [0.23, 0.3], [0.5, 0.3]]}]))
+    fluid, _, _, _ = geometry.build(case)
+    want = geometry.lattice([0.0, 0.0], [1.0, 0.5], dp)
+    d = geometry._outline_distance(want, np.array([[0.23, 0.0], [0.23, 0.3], [0.5, 0.3]]), closed=False)
+    assert _set(fluid["x"]) == _set(want[:, d >= 0.025 * (1 - 1e-6)]) and fluid["x"].shape[1] == 200 - 6
+
+
 def test_a_wall_mesh_that_leaves_no_fluid_says_which_side_it_holds(box_stl):
     case = validate({"dim": 3, "dp": 0.1, "time": {"end": 0.1}, "domain": {"min": [-0.6] * 3, "max": [1.6] * 3},
                      "fluid": [{"min": [0.2] * 3, "max": [0.8] * 3}],

@@ -107,12 +107,15 @@ def tank_particles(tank, dp, layers, periodic=(False, False, False)):
 
 def _in_polygon(x, pts, margin):
     """Points of x (2, N) inside the closed polygon ``pts`` (M, 2) or within ``margin`` of its
-    outline (even-odd rule, and the distance to each side)."""
+    outline (even-odd rule, and the distance to each side), in chunks of x."""
     a, b = pts, np.roll(pts, -1, axis=0)
-    px, py = x[0][:, None], x[1][:, None]
-    crosses = ((a[:, 1] > py) != (b[:, 1] > py)) & (
-        px < a[:, 0] + (py - a[:, 1]) * (b[:, 0] - a[:, 0]) / np.where(b[:, 1] != a[:, 1], b[:, 1] - a[:, 1], 1.0))
-    inside = crosses.sum(axis=1) % 2 == 1
+    inside = np.empty(x.shape[1], dtype=bool)
+    step = max(1, 2 ** 22 // len(a))
+    for s in range(0, x.shape[1], step):
+        px, py = x[0, s:s + step][:, None], x[1, s:s + step][:, None]
+        crosses = ((a[:, 1] > py) != (b[:, 1] > py)) & (
+            px < a[:, 0] + (py - a[:, 1]) * (b[:, 0] - a[:, 0]) / np.where(b[:, 1] != a[:, 1], b[:, 1] - a[:, 1], 1.0))
+        inside[s:s + step] = crosses.sum(axis=1) % 2 == 1
     return inside | (_outline_distance(x, pts) < margin) if margin > 0 else inside
 
 
@@ -139,13 +142,19 @@ def polygon_particles(points, dp, layers, phase):
     return x[:, (~inside if holds_fluid(pts) else inside) & (_outline_distance(x, pts) < t)]
 
 
-def _outline_distance(x, pts):
-    """The distance of each point of x (2, N) to the closed outline ``pts`` (M, 2)."""
-    a, b = pts, np.roll(pts, -1, axis=0)
-    px, py = x[0][:, None], x[1][:, None]
+def _outline_distance(x, pts, closed=True):
+    """The distance of each point of x (2, N) to the outline ``pts`` (M, 2), closed or open
+    (a polyline), in chunks of x."""
+    a, b = (pts, np.roll(pts, -1, axis=0)) if closed else (pts[:-1], pts[1:])
     ab = b - a
-    t = np.clip(((px - a[:, 0]) * ab[:, 0] + (py - a[:, 1]) * ab[:, 1]) / np.maximum((ab ** 2).sum(axis=1), 1e-300), 0, 1)
-    return np.sqrt(((px - a[:, 0] - t * ab[:, 0]) ** 2 + (py - a[:, 1] - t * ab[:, 1]) ** 2).min(axis=1))
+    ab2 = np.maximum((ab ** 2).sum(axis=1), 1e-300)
+    out = np.empty(x.shape[1])
+    step = max(1, 2 ** 22 // len(a))
+    for s in range(0, x.shape[1], step):
+        px, py = x[0, s:s + step][:, None], x[1, s:s + step][:, None]
+        t = np.clip(((px - a[:, 0]) * ab[:, 0] + (py - a[:, 1]) * ab[:, 1]) / ab2, 0, 1)
+        out[s:s + step] = np.sqrt(((px - a[:, 0] - t * ab[:, 0]) ** 2 + (py - a[:, 1] - t * ab[:, 1]) ** 2).min(axis=1))
+    return out
 
 
 def _tiles(lo, hi, size):
@@ -321,19 +330,20 @@ def _clear_of(x, pts, r):
 def _carved(case, x, dp):
     """The lattice points x (dim, N) of a fluid box or surface fill that the walls leave to
     the fluid, each at least dp/2 from them: outside the obstacle boxes; outside a closed
-    polygon that is a body (clockwise), inside one that is a container (counter-clockwise);
-    outside a closed ``[[walls]]`` mesh with ``fluid_side = "outside"``, inside one with
-    ``"inside"`` (only the points within a mesh's box grown by dp/2 are tested); none within
-    dp/2 of a point of a ``[[walls]]`` point file (which has no solid side)."""
+    polygon that is a body (clockwise), inside one that is a container (counter-clockwise),
+    off an open one; outside a closed ``[[walls]]`` mesh with ``fluid_side = "outside"``,
+    inside one with ``"inside"`` (only the points within a mesh's box grown by dp/2 are
+    tested); off a ``[[walls]]`` point file's points (it has no solid side)."""
     for box in case["obstacle"]:
         x = x[:, ~_inside(x, np.asarray(box["min"]) - 0.5 * dp, np.asarray(box["max"]) + 0.5 * dp, 1e-6 * dp)]
     for poly in case["polygon"]:
-        if poly["closed"]:
-            pts = np.asarray(poly["points"], dtype=float)
-            if holds_fluid(pts):
-                x = x[:, _in_polygon(x, pts, 0.0) & (_outline_distance(x, pts) >= 0.5 * dp * (1 - 1e-6))]
-            else:
-                x = x[:, ~_in_polygon(x, pts, 0.5 * dp * (1 - 1e-6))]
+        pts = np.asarray(poly["points"], dtype=float)
+        if not poly["closed"]:  # a polyline has no solid side: none within dp/2 of it
+            x = x[:, _outline_distance(x, pts, closed=False) >= 0.5 * dp * (1 - 1e-6)]
+        elif holds_fluid(pts):
+            x = x[:, _in_polygon(x, pts, 0.0) & (_outline_distance(x, pts) >= 0.5 * dp * (1 - 1e-6))]
+        else:
+            x = x[:, ~_in_polygon(x, pts, 0.5 * dp * (1 - 1e-6))]
     for k, w in enumerate(case["walls"]):
         if w.get("file") and x.shape[1]:  # points without a solid side: none within dp/2 of one
             pts = _read(case, f"walls[{k}].file", read_points, _path(case, w["file"]), case["dim"])["x"]
