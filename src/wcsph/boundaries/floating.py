@@ -1214,7 +1214,9 @@ class Driven:
 def wall_contacts(sources, points, body, motions=None, centres=None, meshes=None):
     """Every wall a floating body meets, each wall source classified once, as
     (``planes``, ``blocks``, ``driven``):
-    - ``planes``: the fixed tank's faces ((n, o), inside where n . x >= o; ``tank_planes``);
+    - ``planes``: the faces of the fixed containers ((n, o), inside where n . x >= o): the
+      tank's (``tank_planes``), a convex closed polygon's with the fluid inside
+      (counter-clockwise), a convex closed mesh's with ``fluid_side = "inside"``;
     - ``blocks``: the fixed obstacles a body stays out of: obstacle boxes, closed polygons
       with the fluid outside (clockwise) and closed wall meshes with the fluid outside, as
       (N, o) half-spaces (inside where N x < o), a concave polygon as its convex pieces (N, o,
@@ -1222,11 +1224,10 @@ def wall_contacts(sources, points, body, motions=None, centres=None, meshes=None
     - ``driven``: the rest as ``Driven`` sides of a contact, each about the centre its motion
       turns it about (a fixed one: ``Still``, about the origin): a box, closed polygon or
       closed mesh with the fluid outside on a prescribed path (its shapes as ``mesh_shapes``
-      has them, and its wall points); a container (the tank on a path, a convex closed
-      polygon with the fluid inside, a convex closed mesh with ``fluid_side = "inside"``),
-      fixed or on a path, as its ``container`` faces; any other wall (a particle file, an
-      open polygon, a concave container), fixed or on a path, as its wall points alone, which
-      a floating body's shapes hold out.
+      has them, and its wall points); a container of those kinds on a path, as its
+      ``container`` faces; any other wall (a particle file, an open polygon, a concave
+      container), fixed or on a path, as its wall points alone, which a floating body's
+      shapes hold out.
     ``sources``: (key, table) of each wall source in the bodies' order (``case.config``'s);
     ``points`` (dim, n) the wall points at rest and ``body`` their sources' indices;
     ``motions`` and ``centres`` of each source (``motion.Bodies``'; default: none);
@@ -1263,8 +1264,9 @@ def wall_contacts(sources, points, body, motions=None, centres=None, meshes=None
                 own = own[:, :0]
         elif outline is not None:
             shapes = polygon_shapes(outline[0]) if outline[1] is None else mesh_shapes(*outline)
-        if shapes and motion is None:
-            blocks.extend(shapes)  # a fixed obstacle, in the world's frame
+        if motion is None and (shapes or container):  # fixed: in the world's frame, as the tank's faces
+            blocks.extend(shapes)
+            planes.extend(container)
         elif shapes or container or own.shape[1]:
             driven.append(Driven(motion if motion is not None else Still(dim), c, own, shapes, container))
     return planes, blocks, driven

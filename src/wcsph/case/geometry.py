@@ -327,13 +327,27 @@ def _clear_of(x, pts, r):
     return keep
 
 
-def _carved(case, x, dp):
+def _wall_files(case):
+    """[(walls table, its points (dim, M) or None, its mesh (vertices, faces) or None)] of
+    the case's ``[[walls]]``, each file read once for every fluid block ``_carved`` cuts."""
+    out = []
+    for k, w in enumerate(case["walls"]):
+        key = f"walls[{k}]"
+        pts = (_read(case, key + ".file", read_points, _path(case, w["file"]), case["dim"])["x"]
+               if w.get("file") else None)
+        mesh = _read(case, key + ".mesh", read_surface, _path(case, w["mesh"]), case["dim"]) if w.get("mesh") else None
+        out.append((w, pts, mesh))
+    return out
+
+
+def _carved(case, x, dp, wall_files):
     """The lattice points x (dim, N) of a fluid box or surface fill that the walls leave to
     the fluid, each at least dp/2 from them: outside the obstacle boxes; outside a closed
     polygon that is a body (clockwise), inside one that is a container (counter-clockwise),
     off an open one; outside a closed ``[[walls]]`` mesh with ``fluid_side = "outside"``,
     inside one with ``"inside"`` (only the points within a mesh's box grown by dp/2 are
-    tested); off a ``[[walls]]`` point file's points (it has no solid side)."""
+    tested); off a ``[[walls]]`` point file's points (it has no solid side). ``wall_files``:
+    ``_wall_files(case)``."""
     for box in case["obstacle"]:
         x = x[:, ~_inside(x, np.asarray(box["min"]) - 0.5 * dp, np.asarray(box["max"]) + 0.5 * dp, 1e-6 * dp)]
     for poly in case["polygon"]:
@@ -344,13 +358,12 @@ def _carved(case, x, dp):
             x = x[:, _in_polygon(x, pts, 0.0) & (_outline_distance(x, pts) >= 0.5 * dp * (1 - 1e-6))]
         else:
             x = x[:, ~_in_polygon(x, pts, 0.5 * dp * (1 - 1e-6))]
-    for k, w in enumerate(case["walls"]):
-        if w.get("file") and x.shape[1]:  # points without a solid side: none within dp/2 of one
-            pts = _read(case, f"walls[{k}].file", read_points, _path(case, w["file"]), case["dim"])["x"]
+    for w, pts, mesh in wall_files:
+        if pts is not None and x.shape[1]:  # points without a solid side: none within dp/2 of one
             x = x[:, _clear_of(x, pts, 0.5 * dp * (1 - 1e-6))]
-        if not w.get("mesh") or x.shape[1] == 0:
+        if mesh is None or x.shape[1] == 0:
             continue
-        verts, faces = _read(case, f"walls[{k}].mesh", read_surface, _path(case, w["mesh"]), case["dim"])
+        verts, faces = mesh
         lo, hi = verts.min(axis=1) - 0.5 * dp, verts.max(axis=1) + 0.5 * dp
         near = np.all((x >= lo[:, None]) & (x <= hi[:, None]), axis=0)
         keep = ~near if w["fluid_side"] == "outside" else np.zeros(x.shape[1], dtype=bool)
@@ -468,13 +481,14 @@ def build(case, column=None):
     walls = wall_set["x"]
 
     xs, vs, tops, ps = [], [], [], []
+    wall_files = _wall_files(case)
     for k, block in enumerate(case["fluid"]):
         if block["min"] is None:  # a point file or a surface to fill
             x, v_file, p_file = _file_fluid(case, k, block, dp)
             if x.shape[1] == 0:
                 raise CaseError(f"{src}: fluid[{k}]: the surface encloses no lattice point of dp = {dp}")
             if block["surface"]:  # a lattice, as a box's: cut as a box is (a point file is taken as given)
-                x = _carved(case, x, dp)
+                x = _carved(case, x, dp, wall_files)
             xs.append(x)
             vs.append(np.stack([evaluate(str(c), x) for c in block["velocity"]]) if block["velocity"] is not None
                       else (v_file if v_file is not None else np.zeros_like(x)))
@@ -496,7 +510,7 @@ def build(case, column=None):
             x = lattice(block["min"], block["max"], dp)
         if x.shape[1] == 0:
             raise CaseError(f"{src}: fluid[{k}]: block is thinner than dp = {dp}, it holds no particle")
-        x = _carved(case, x, dp)
+        x = _carved(case, x, dp, wall_files)
         xs.append(x)
         vs.append(np.stack([evaluate(str(c), x) for c in (block["velocity"] or [0.0] * dim)]))
         tops.append(np.full(x.shape[1], block["max"][-1]))

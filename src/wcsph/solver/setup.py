@@ -89,7 +89,7 @@ def build(case, backend, comm):
     body = wall0.pop("body")
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,
                     _floating_bodies(case), float(np.linalg.norm(case["physics"]["gravity"])))
-    if bodies.floating:  # the walls a floating body meets: the fixed tank's faces, the fixed
+    if bodies.floating:  # the walls a floating body meets: the fixed containers' faces, the fixed
         # obstacles it stays out of, and every other wall (``floating.Driven``)
         planes, blocks, bodies.driven = wall_contacts(_wall_sources(case), wall0["x"], body, bodies.motions,
                                                       bodies.centres, _meshes(case))
