@@ -334,6 +334,46 @@ def test_a_body_thrown_at_a_fixed_block_never_enters_it():
     assert b.c[0] < 0.8 and b.u[0] <= 0.0
 
 
+#: two fixed obstacles as (N, o) half-spaces (inside where N x < o) and where a body held to
+#: vertical motion is put into them: a 45-degree slope (the triangle (0, 0), (1, 0), (0, 1)),
+#: entered 0.05 m (vertically) at the body's lower left corner, and a box corner, entered
+#: 0.02 m from its side and 0.05 m from its top
+HELD_CONTACTS = {
+    "slope": ((np.array([[1.0, 1.0], [-1.0, 0.0], [0.0, -1.0]]) * [[math.sqrt(0.5)], [1.0], [1.0]],
+               np.array([math.sqrt(0.5), 0.0, 0.0])), [0.3, 0.65], 0.05),
+    "corner": (box_faces([0.0, 0.0], [1.0, 0.5]), [0.98, 0.45], 0.05),
+}
+
+
+@pytest.mark.parametrize("wall", ["fixed", "driven"])
+@pytest.mark.parametrize("name", sorted(HELD_CONTACTS))
+def test_a_body_held_to_vertical_motion_leaves_an_obstacle_upward(name, wall):
+    """A box that may only move vertically (no rotation), put into an obstacle and moving into
+    it at 1 m/s: the contact lifts it out exactly (its lowest corner back on the slope, or on
+    the box's top, not pushed through the box's nearer side, which its held axis cannot move
+    along) and takes its speed into the obstacle out. The same whether the obstacle is a
+    fixed one (``meet``, ``settle``) or a wall on a path (``Driven``, ``collide``): one
+    mechanism."""
+    from wcsph.boundaries.floating import Driven, Still, collide
+
+    shape, corner, lift = HELD_CONTACTS[name]
+    corner = np.asarray(corner)
+    b, pts = _box_body(corner, corner + 0.2, 1.0)
+    b.free_t, b.free_r = np.array([0.0, 1.0]), np.array([False])
+    b.u = np.array([0.0, -1.0])
+    if wall == "fixed":
+        b.meet(pts, [], [shape])
+        b.settle()
+    else:
+        b.meet(pts, [])
+        collide(b, Driven(Still(2), np.zeros(2), np.zeros((2, 0)), [shape]))
+    c0 = corner + 0.1
+    assert b.c[0] == c0[0] and b.c[1] == pytest.approx(c0[1] + lift, abs=1e-12)
+    N, o = shape
+    assert np.all(np.max(N @ b.wall_points() - o[:, None], axis=0) >= -1e-12)  # no point inside
+    assert b.u[0] == 0.0 and abs(b.u[1]) < 1e-12 and b.omega == 0.0
+
+
 def _box_body(lo, hi, mass, dim=2):
     from wcsph.boundaries.floating import FloatingBody, box_properties
 

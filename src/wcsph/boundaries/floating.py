@@ -57,9 +57,13 @@ normal impulse, so that a body on a slope stays where tan(slope) <= mu and slide
 g (sin - mu cos) where it is steeper (with another body, the lesser of the two mu). The
 same holds a body out of the case's fixed obstacle boxes and closed polygons (their
 faces as half-spaces, ``wall_contacts``): wall points of the body inside one move the body out
-through the face that needs the least push (along its normal, on the free axes), and impulses
-through them take its velocity into the obstacle out, turning it as at the tank's faces.
-Two floating bodies (``collide``) are parted the same way in the frame of the one entered,
+through the face that needs the least motion (along its normal, on the free axes: a body
+held to vertical motion leaves upward, never through a side it cannot move along), and
+impulses through them take its velocity into the obstacle out, turning it as at the tank's
+faces. Every contact is one mechanism, ``collide`` between two sides: a floating body and
+another, or a floating body and a wall (``Driven``: the fixed tank faces and obstacles as
+one that does not move, ``FloatingBody.fixed``; a wall on a path as one that moves).
+Two floating bodies are parted in the frame of the one entered,
 which must be convex (a box, a convex polygon, a closed convex wall mesh: its faces as
 half-spaces), the push out through its nearest face shared in inverse proportion to their
 masses, and impulses through the contact points, equal and opposite on the two, remove their
@@ -206,8 +210,7 @@ class FloatingBody:
         self.tensions = [0.0] * len(self.springs)  # at the last step, for probes.csv
         self.points = np.zeros((dim, 0))  # the wall points about c0 (contact), set by ``meet``
         self.reach = 0.0  # the radius about c beyond which nothing is inside it (``meet``)
-        self.planes = []  # (n, o): the tank's faces, inside where n . x >= o
-        self.blocks = []  # (N, o): fixed convex obstacles the body stays out of, inside where N x < o
+        self.fixed = None  # the fixed walls it meets, as one ``Driven`` side of its contacts (``meet``)
         self.box = None  # (lo, hi) about c0 in the body's frame, when the body is an obstacle box
         self.hull = None  # (N (m, dim), o (m)): a convex body's faces about c0, inside where N y < o
         self.pieces = []  # a concave body's convex pieces (2D) or mesh (3D) about c0 (``shapes``)
@@ -221,9 +224,12 @@ class FloatingBody:
         # beyond this distance from its centre no point is inside any of its shapes (which its
         # wall points line, within a spacing)
         self.reach = 2.0 * float(np.max(np.linalg.norm(self.points, axis=0))) if self.points.shape[1] else 0.0
-        self.planes = [(np.asarray(n, dtype=float), float(o)) for n, o in planes]
-        self.blocks = [b if isinstance(b, MeshShape) else
-                       (np.asarray(b[0], dtype=float), np.asarray(b[1], dtype=float)) + tuple(b[2:]) for b in blocks]
+        blocks = [b if isinstance(b, MeshShape) else
+                  (np.asarray(b[0], dtype=float), np.asarray(b[1], dtype=float)) + tuple(b[2:]) for b in blocks]
+        # the fixed faces and obstacles are the other side of a contact as a wall on a path is
+        # (``collide``), one that does not move
+        self.fixed = (Driven(Still(self.dim), np.zeros(self.dim), np.zeros((self.dim, 0)), blocks, planes)
+                      if len(planes) or len(blocks) else None)
 
     def wall_points(self):
         """Its wall points where it is now (dim, K)."""
@@ -266,11 +272,10 @@ class FloatingBody:
             self._spring_loads()  # the tensions at the step's end, as probes.csv reports the state
 
     def settle(self):
-        """The contacts with the tank's faces and the fixed boxes again (after a push)."""
-        if self.planes:
-            self._contact()
-        if self.blocks:
-            self._leave_blocks()
+        """The contacts with the fixed walls (the tank's faces, the fixed obstacles) again: after
+        its step, after a push by another body (``collide`` with ``fixed``)."""
+        if self.fixed is not None:
+            collide(self, self.fixed)
 
     def _spring_loads(self):
         """The springs' force on the body and their torque about its centre, now."""
@@ -335,36 +340,6 @@ class FloatingBody:
         self.u = wr
         self.du = np.cross(self.alpha, r) + np.cross(self.omega, wr)
 
-    def _contact(self):
-        """Back inside the tank's faces: the deepest wall point past a face puts the body
-        back on it along the free axes. Then impulses along the face's normal through the
-        contact points (the extremes, along the face, of the wall points past it: a corner,
-        an edge's ends, a face's outline) remove the velocity into the face at each of them:
-        sequential impulses, each point's total kept non-negative (projected Gauss-Seidel),
-        swept until they settle. A body landing on a corner turns, one landing flat stops
-        (rigid, inelastic, frictionless). The accelerations likewise."""
-        R = self.R if self.dim == 3 else _rot2(self.theta)
-        x = self.c[:, None] + R @ self.points
-        for n, o in self.planes:
-            past = (o - n @ x) > 0.0 if x.shape[1] else np.zeros(0, dtype=bool)
-            if not past.any():
-                continue
-            depth = float(np.max(o - n @ x[:, past]))
-            m = n * self.free_t
-            if not m @ n > 0.0:
-                continue  # the body cannot move off this face (its axis is held)
-            shift = depth / (m @ n) * m
-            r = _extremes(x[:, past] - self.c[:, None], n)  # the contact points about the centre
-            self.c = self.c + shift
-            x = x + shift[:, None]
-            self._impulses(n, r)
-
-    def _impulses(self, n, r):
-        """Impulses along n through the contact points r (dim, K, about the centre) that take
-        the velocity into the surface out at each of them, then the accelerations likewise
-        (``contact_impulses``)."""
-        contact_impulses([(self, n, r)], self.friction)
-
     def _responses(self, n, r):
         """(du, dw, arms) of unit impulses along n through the points r (dim, K, about the
         centre): du = n/M on the free translations (the same for every point), dw (K, a number
@@ -381,54 +356,6 @@ class FloatingBody:
                 Iw = self.R @ self.inertia @ self.R.T
                 dw[:, f] = np.linalg.solve(Iw[np.ix_(f, f)], arms[:, f].T).T
         return self.free_t * n / self.mass, dw, arms
-
-    def _leave_blocks(self):
-        """Out of each fixed convex obstacle: when wall points of the body are inside one, the
-        body is moved out through the face that clears them all with the shortest push (along
-        that face's normal, on the free axes), and impulses along the normal through the
-        points that were inside take the velocity and acceleration into the obstacle out
-        (rigid, inelastic, turning the body, as at the tank's faces)."""
-        R = self.R if self.dim == 3 else _rot2(self.theta)
-        for block in self.blocks:
-            if isinstance(block, MeshShape):
-                for _ in range(MESH_PASSES):
-                    x = self.c[:, None] + R @ self.points
-                    hit = block.push(x, TOUCH * block.size)
-                    if hit is None:
-                        break
-                    inside, need, n = hit
-                    m = n * self.free_t
-                    along = float(m @ n)
-                    if not along > 0.0:
-                        break  # held along the way out
-                    r = _extremes(x[:, inside] - self.c[:, None], n)
-                    self.c = self.c + need / along * m
-                    self._impulses(n, r)
-                continue
-            x = self.c[:, None] + R @ self.points
-            N, o = block[:2]
-            out = _exits(block)
-            depth = o[:, None] - N @ x  # (faces, points): how far inside each face
-            inside = np.all(depth > 0.0, axis=0)
-            if not inside.any():
-                continue
-            best = None
-            for f, need in enumerate(np.max(depth[:, inside], axis=1)):
-                if not out[f]:
-                    continue  # a diagonal inside a concave obstacle
-                m = N[f] * self.free_t
-                along = float(m @ N[f])
-                if not along > 0.0:
-                    continue  # this face's normal is held
-                length = need / along * math.sqrt(float(m @ m))  # need itself for a free axis's face
-                if best is None or length < best[0]:
-                    best = (length, need / along * m, N[f])
-            if best is None:
-                continue  # held on every free direction: nothing can move it out
-            _, shift, n = best
-            r = _extremes(x[:, inside] - self.c[:, None], n)  # the contact points about the centre
-            self.c = self.c + shift
-            self._impulses(n, r)
 
     def faces(self):
         """The body's convex shape as half-spaces in its own frame about its centre, (N, o):
@@ -755,15 +682,18 @@ def tank_planes(tank, dim):
 
 
 def collide(a, b):
-    """Two floating bodies kept apart, each convex one (a box, a convex polygon or mesh:
-    ``faces``) holding the other's wall points out of it: the points of one inside the other
-    (in that body's frame) part the two by the least push out through one of its faces, along
-    that face's normal, shared in inverse proportion to their masses (a held axis takes
-    none); then impulses along that normal through the contact points (the extremes, along
-    the face, of the points that were inside) take the velocity and acceleration of approach
-    out at each of them, equal and opposite on the two bodies, turning both (rigid,
-    inelastic: momentum and angular momentum kept; friction as ``contact_impulses``). Returns
-    whether they touched."""
+    """Two bodies kept apart (two floating bodies, or a floating body and a wall: ``Driven``,
+    fixed or on a path), each convex shape of one (a box, a convex polygon or mesh: ``faces``;
+    a concave body's pieces or mesh: ``shapes``) holding the other's wall points out of it,
+    each container's faces (``Driven.container``) holding the other's points inside: the
+    points of one inside the other (in that body's frame) part the two by the least push out
+    through one of its faces, along that face's normal on their free axes, shared in inverse
+    proportion to their masses (a held axis takes none, a wall all of it: ``_part``); then
+    impulses along that normal through the contact points (the extremes, along the face, of
+    the points that were inside) take the velocity and acceleration of approach out at each
+    of them, equal and opposite on the two bodies, turning both (rigid, inelastic: momentum
+    and angular momentum kept; friction as ``contact_impulses``). Returns whether they
+    touched."""
     touched = False
     for p, q in ((a, b), (b, a)):
         touched = _keep_inside(p, q) or touched
@@ -778,21 +708,44 @@ def collide(a, b):
                 if not x.shape[1]:
                     break
             y = Rq.T @ (x - q.c[:, None])  # p's points in q's frame
-            hit = _hit(shape, y)
+            hit = _hit(shape, y, lambda N: _lengths(p, q, N @ Rq.T))
             if hit is None:
                 break
             inside, need, nq = hit
             n = Rq @ nq  # out of q, for p
-            inv_p, inv_q = (float(n @ (body.free_t * n)) / body.mass for body in (p, q))
-            if inv_p + inv_q <= 0.0:
+            if not _part(p, q, n, need, x[:, inside]):
                 break  # both held along it
-            points = p.c[:, None] + _extremes(x[:, inside] - p.c[:, None], n)  # the contact points
-            p.c = p.c + need * inv_p / (inv_p + inv_q) * p.free_t * n
-            q.c = q.c - need * inv_q / (inv_p + inv_q) * q.free_t * n
-            contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])],
-                             min(p.friction, q.friction))
             touched = True
     return touched
+
+
+def _lengths(p, q, n):
+    """How far p and q move, together, per unit of their parting along each unit normal n
+    (faces, dim) when pushed apart (``_part``): 1 for free bodies, more along a normal their
+    held axes are oblique to, infinite where neither can move along it."""
+    inv = sum(np.sum(n * n * body.free_t, axis=1) / body.mass for body in (p, q))
+    if all(np.all(body.free_t == 1.0) or not np.isfinite(body.mass) for body in (p, q)):
+        return np.where(inv > 0.0, 1.0, np.inf)
+    moved = sum(np.linalg.norm(n * body.free_t, axis=1) / body.mass for body in (p, q))
+    return np.where(inv > 0.0, moved / np.where(inv > 0.0, inv, 1.0), np.inf)
+
+
+def _part(p, q, n, need, x):
+    """p and q pushed apart along the unit normal n (out of q, for p) on their free axes until
+    they have parted by ``need`` along it, in inverse proportion to their masses (a wall, of
+    infinite mass, takes none), then the impulses through the contact points among x (dim, K:
+    p's points that were inside q, where they were) that take their approach out. Returns
+    False (nothing done) when neither can move along n."""
+    inv_p, inv_q = (float(n @ (body.free_t * n)) / body.mass for body in (p, q))
+    if not inv_p + inv_q > 0.0:
+        return False
+    r = _extremes(x - p.c[:, None], n)  # the contact points about p's centre, which move with p
+    a = need / (inv_p + inv_q)
+    p.c = p.c + a / p.mass * p.free_t * n
+    q.c = q.c - a / q.mass * q.free_t * n
+    points = p.c[:, None] + r  # where they are now
+    contact_impulses([(p, n, r), (q, -n, points - q.c[:, None])], min(p.friction, q.friction))
+    return True
 
 
 #: sweeps over the pairs of floating bodies at most, per step: a stack of bodies on the floor
@@ -819,10 +772,11 @@ def part(moving, driven):
 
 
 def _keep_inside(p, q):
-    """Body p's wall points back inside the faces of the container q (``Driven.container``):
-    the deepest point past a face puts p back on it (along p's free axes; q does not move),
-    then impulses along the face's normal through the contact points take out the speed at
-    which p approaches the face, which moves with q. Returns whether p touched a face."""
+    """Body p's wall points back inside the faces of the container q (``Driven.container``:
+    the tank's faces, a convex container's, fixed or on a path): the deepest point past a
+    face puts p back on it (``_part``: along p's free axes; q does not move), and impulses
+    through the contact points take out the speed at which p approaches the face, which moves
+    with q. Returns whether p touched a face."""
     faces = q.container
     if not faces or not p.points.shape[1] or not np.isfinite(p.mass):
         return False
@@ -833,17 +787,8 @@ def _keep_inside(p, q):
         o = o0 + float(n @ q.c)  # inside where n . x >= o
         x = p.wall_points()
         past = (o - n @ x) > 0.0
-        if not past.any():
-            continue
-        m = n * p.free_t
-        if not m @ n > 0.0:
-            continue  # p cannot move off this face (its axis is held)
-        depth = float(np.max(o - n @ x[:, past]))
-        points = p.c[:, None] + _extremes(x[:, past] - p.c[:, None], n)  # the contact points
-        p.c = p.c + depth / float(m @ n) * m
-        contact_impulses([(p, n, points - p.c[:, None]), (q, -n, points - q.c[:, None])],
-                         min(p.friction, q.friction))
-        touched = True
+        if past.any() and _part(p, q, n, float(np.max(o - n @ x[:, past])), x[:, past]):
+            touched = True
     return touched
 
 
@@ -856,11 +801,13 @@ def _passes(shape):
     return MESH_PASSES if isinstance(shape, MeshShape) else 1
 
 
-def _hit(shape, y):
+def _hit(shape, y, lengths):
     """For points y (dim, P) in the frame of ``shape`` (convex (N, o[, exposed]) or a
     ``MeshShape``): None when none is inside (by more than a rounding error), else (which are,
     the push out, its unit direction). A convex shape is left through the face that needs
-    the least push to clear them all; a mesh through the deepest point's nearest face."""
+    the least push to clear them all, measured as the bodies' motion (the push times
+    ``lengths`` of the face normals (faces, dim): ``_lengths``); a mesh through the deepest
+    point's nearest face."""
     if isinstance(shape, MeshShape):
         return shape.push(y, TOUCH * shape.size)
     N, o = shape[:2]
@@ -869,8 +816,11 @@ def _hit(shape, y):
     inside = np.all(depth > slack, axis=0)
     if not inside.any():
         return None
-    needs = np.where(_exits(shape), np.max(depth[:, inside], axis=1), np.inf)  # the push out through each face
-    f = int(np.argmin(needs))  # the first of the least
+    needs = np.max(depth[:, inside], axis=1)  # the push out through each face
+    moves = np.where(_exits(shape), needs * lengths(N), np.inf)
+    f = int(np.argmin(moves))  # the first of the least
+    if not np.isfinite(moves[f]):
+        return None  # held along every way out
     return inside, float(needs[f]), N[f]
 
 
