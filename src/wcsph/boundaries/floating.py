@@ -782,12 +782,14 @@ def _keep_inside(p, q):
         return False
     Rq = q.R if q.dim == 3 else _rot2(q.theta)
     touched = False
+    x = p.wall_points()
     for n0, o0 in faces:
         n = Rq @ n0
         o = o0 + float(n @ q.c)  # inside where n . x >= o
-        x = p.wall_points()
         past = (o - n @ x) > 0.0
+        c = p.c
         if past.any() and _part(p, q, n, float(np.max(o - n @ x[:, past])), x[:, past]):
+            x = x + (p.c - c)[:, None]  # a push moves p without turning it
             touched = True
     return touched
 
