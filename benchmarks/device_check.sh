@@ -8,7 +8,9 @@
 #      adaptive step; particles leaving the domain; the device sort and reductions);
 #   2. benchmarks/gpu.py: ms per step and fluid particle-steps per second for the cases the
 #      issue names (2D 100 k and 1.6 M, SPHERIC 2 at dp 0.01, 3D 5 M), as JSON and as the
-#      README's table.
+#      README's table;
+#   3. benchmarks/neighbour_list.py --backend cuda: the 3D interaction pass over a neighbour
+#      list with a skin against the cell walk (README, Speed).
 #
 # The device's image has numba, numba-cuda, numpy, matplotlib, scikit-image, rich, pytest and
 # hypothesis (see the device tool's KINDS.md); what it lacks travels as wheels in .whl/ (git
@@ -37,3 +39,10 @@ WCSPH_CUDA_DEVICE=1 timeout 240 python3 -m pytest -q -p no:cacheprovider -o addo
 
 timeout 240 python3 benchmarks/gpu.py --json 2>&1 | tee "$OUT/gpu.jsonl"
 timeout 120 python3 benchmarks/gpu.py --json --constant-dt --cases 2d-100k spheric2 2>&1 | tee -a "$OUT/gpu.jsonl"
+
+# 3. a neighbour list with a skin against the cell walk, the 3D interaction pass alone
+#    (README, Speed): SPHERIC 2 at dp 0.01 and the 3D dam break at 1 M, float32
+for s in 0.05 0.1; do
+    timeout 90 python3 benchmarks/neighbour_list.py spheric2_3d --n 652000 --backend cuda --skin $s 2>&1 | tee -a "$OUT/neighbour_list.txt"
+done
+timeout 90 python3 benchmarks/neighbour_list.py dam_break_3d_bi --n 1000000 --backend cuda --skin 0.05 2>&1 | tee -a "$OUT/neighbour_list.txt"
