@@ -21,110 +21,47 @@ import argparse
 import math
 import statistics
 import time
+from collections import namedtuple
 
 import numpy as np
+from numba import config as numba_config
 from numba import cuda, njit, prange
 from numba.extending import register_jitable
 
 from _measure import host, setup
 
 
-def make_list_builder(dim, zero):
-    """build(I, J1, J2, G, r2, cap, count1, list1, count2, list2): for each i of I the j of
-    J1 (and J2) within sqrt(r2), in the cell walk's order, in list*[i, :count*[i]] (at most
-    ``cap`` each; the count goes on past it, so that the caller sees the overflow)."""
+#: particle i of the build: its position and cell (what the walk reads), and its lists
+ListView = namedtuple("ListView", "x cell count1 list1 count2 list2")
+#: particle i of the build: its position and cell (what the walk reads), and its lists
+ListView = namedtuple("ListView", "x cell count1 list1 count2 list2")
 
-    @register_jitable(inline="always")
+
+def list_build_body(dim, zero, neighbour_major, inline):
+    """build(i, I, J1, J2, G, r2, L): the j of J1 and J2 within sqrt(r2) of particle i of
+    I, in the cell walk's order (the backend's: per row of cells, J1's run, then J2's), into
+    L's lists (a ``ListView``), at most the list's length; the counts go on past it, so that
+    the caller sees the overflow. ``neighbour_major``: list[m, i] (a GPU's warp reads its
+    m-th neighbours in one transaction), else list[i, m] (a CPU thread reads its own row).
+    ``inline``: as the backends' walk (the CPU's loop inlines, numba-cuda does not)."""
+
+    @register_jitable(inline=inline)
     def run_into(i, xi, yi, zi, J, j0, j1, r2, lst, n):
         for j in range(j0, j1):
             dx = xi - J.x[0, j]
             dy = yi - J.x[1, j]
             dz = zi - J.x[2, j] if dim == 3 else zero
             if dx * dx + dy * dy + dz * dz < r2:
-                if n < lst.shape[1]:
-                    lst[i, n] = np.uint32(j)
+                if neighbour_major:
+                    if n < lst.shape[0]:
+                        lst[n, i] = j
+                elif n < lst.shape[1]:
+                    lst[i, n] = j
                 n += 1
         return n
 
-    @njit(parallel=True, fastmath=True)
-    def build(I, J1, J2, G, r2, count1, list1, count2, list2):
-        k = G.k
-        kz = k if dim == 3 else 0
-        for i in prange(I.x.shape[1]):
-            c = I.cell[i]
-            xi = I.x[0, i]
-            yi = I.x[1, i]
-            zi = I.x[2, i] if dim == 3 else zero
-            n1 = 0
-            n2 = 0
-            for oz in range(-kz, kz + 1):
-                for oy in range(-k, k + 1):
-                    cc = c + oy * G.sy + oz * G.sz
-                    n1 = run_into(i, xi, yi, zi, J1, J1.start[cc - k], J1.start[cc + k + 1], r2, list1, n1)
-                    n2 = run_into(i, xi, yi, zi, J2, J2.start[cc - k], J2.start[cc + k + 1], r2, list2, n2)
-            count1[i] = n1
-            count2[i] = n2
-
-    return build
-
-
-def make_list_pass(dim, init, pair1, pair2, finish, zero):
-    """The interaction pass over the lists: the pairs within the support, in the list's order."""
-
-    def make_visit(pair):
-        @register_jitable(inline="always")
-        def visit(i, xi, yi, zi, I, J, lst, n, P, acc):
-            for m in range(n):
-                j = lst[i, m]
-                dx = xi - J.x[0, j]
-                dy = yi - J.x[1, j]
-                dz = zi - J.x[2, j] if dim == 3 else zero
-                r2 = dx * dx + dy * dy + dz * dz
-                if r2 < P.rc2:
-                    acc = pair(i, j, dx, dy, dz, np.sqrt(r2), I, J, P, acc)
-            return acc
-        return visit
-
-    visit1 = make_visit(pair1)
-    visit2 = make_visit(pair2)
-
-    @njit(parallel=True, fastmath=True)
-    def run(I, J1, J2, P, count1, list1, count2, list2):
-        for i in prange(I.x.shape[1]):
-            xi = I.x[0, i]
-            yi = I.x[1, i]
-            zi = I.x[2, i] if dim == 3 else zero
-            acc = init(i, I, P)
-            acc = visit1(i, xi, yi, zi, I, J1, list1, count1[i], P, acc)
-            acc = visit2(i, xi, yi, zi, I, J2, list2, count2[i], P, acc)
-            finish(i, I, P, acc)
-
-    return run
-
-
-def make_cuda_kernels(dim, init, pair1, pair2, finish, zero):
-    """build(I, J1, J2, G, r2, count1, list1, count2, list2) and the list pass
-    run(I, J1, J2, Pd, count1, list1, count2, list2) as CUDA kernels (``load``: P's record
-    read back into the model's namedtuple, as the backend's kernels do)."""
-    from wcsph.backends.cuda import _loader
-
-    @cuda.jit(device=True)
-    def run_into(i, xi, yi, zi, J, j0, j1, r2, lst, n):
-        for j in range(j0, j1):
-            dx = xi - J.x[0, j]
-            dy = yi - J.x[1, j]
-            dz = zi - J.x[2, j] if dim == 3 else zero
-            if dx * dx + dy * dy + dz * dz < r2:
-                if n < lst.shape[0]:
-                    lst[n, i] = j
-                n += 1
-        return n
-
-    @cuda.jit
-    def build(I, J1, J2, G, r2, count1, list1, count2, list2):
-        i = cuda.grid(1)
-        if i >= I.x.shape[1]:
-            return
+    @register_jitable(inline=inline)
+    def build(i, I, J1, J2, G, r2, L):
         c = I.cell[i]
         xi = I.x[0, i]
         yi = I.x[1, i]
@@ -136,16 +73,26 @@ def make_cuda_kernels(dim, init, pair1, pair2, finish, zero):
         for oz in range(-kz, kz + 1):
             for oy in range(-k, k + 1):
                 cc = c + oy * G.sy + oz * G.sz
-                n1 = run_into(i, xi, yi, zi, J1, J1.start[cc - k], J1.start[cc + k + 1], r2, list1, n1)
-                n2 = run_into(i, xi, yi, zi, J2, J2.start[cc - k], J2.start[cc + k + 1], r2, list2, n2)
-        count1[i] = n1
-        count2[i] = n2
+                n1 = run_into(i, xi, yi, zi, J1, J1.start[cc - k], J1.start[cc + k + 1], r2, L.list1, n1)
+                n2 = run_into(i, xi, yi, zi, J2, J2.start[cc - k], J2.start[cc + k + 1], r2, L.list2, n2)
+        L.count1[i] = n1
+        L.count2[i] = n2
 
-    def make_visit(pair):
-        @cuda.jit(device=True)
-        def visit(i, xi, yi, zi, I, J, lst, n, P, acc):
+    return build
+
+
+def list_body(dim, init, pair1, pair2, finish, zero, neighbour_major, inline):
+    """body(i, I, J1, J2, P, L): the model's interaction of particle i over the lists of
+    ``L`` (a ``ListView``), the pairs within the support in the lists' order (all fluid
+    neighbours, then all wall ones)."""
+
+    def make_visit(pair, first):
+        @register_jitable(inline=inline)
+        def visit(i, xi, yi, zi, I, J, L, P, acc):
+            lst = L.list1 if first else L.list2
+            n = L.count1[i] if first else L.count2[i]
             for m in range(n):
-                j = lst[m, i]
+                j = lst[m, i] if neighbour_major else lst[i, m]
                 dx = xi - J.x[0, j]
                 dy = yi - J.x[1, j]
                 dz = zi - J.x[2, j] if dim == 3 else zero
@@ -153,105 +100,135 @@ def make_cuda_kernels(dim, init, pair1, pair2, finish, zero):
                 if r2 < P.rc2:
                     acc = pair(i, j, dx, dy, dz, math.sqrt(r2), I, J, P, acc)
             return acc
+
         return visit
 
-    visit1, visit2 = make_visit(pair1), make_visit(pair2)
-    made = {}
+    visit1, visit2 = make_visit(pair1, True), make_visit(pair2, False)
 
-    def run_for(T):
-        if T not in made:
-            load = _loader(T)
+    @register_jitable(inline=inline)
+    def body(i, I, J1, J2, P, L):
+        xi = I.x[0, i]
+        yi = I.x[1, i]
+        zi = I.x[2, i] if dim == 3 else zero
+        acc = init(i, I, P)
+        acc = visit1(i, xi, yi, zi, I, J1, L, P, acc)
+        acc = visit2(i, xi, yi, zi, I, J2, L, P, acc)
+        finish(i, I, P, acc)
 
-            @cuda.jit
-            def run(I, J2, Pd, count1, list1, count2, list2):
-                i = cuda.grid(1)
-                if i >= I.x.shape[1]:
-                    return
-                P = load(Pd)
-                xi = I.x[0, i]
-                yi = I.x[1, i]
-                zi = I.x[2, i] if dim == 3 else zero
-                acc = init(i, I, P)
-                acc = visit1(i, xi, yi, zi, I, I, list1, count1[i], P, acc)
-                acc = visit2(i, xi, yi, zi, I, J2, list2, count2[i], P, acc)
-                finish(i, I, P, acc)
-
-            made[T] = run
-        return made[T]
-
-    return build, run_for
+    return body
 
 
-def main_cuda(a, sim):
-    from wcsph.backends.cuda import THREADS, _blocks, _params, _stream
+def cpu_loops(dim, terms, zero):
+    """(build(I, J1, J2, G, r2, L), run(I, J1, J2, P, L)): the list's build and the
+    interaction pass over it, as the CPU backend's loops (one thread per chunk of particles)."""
+    build_one = list_build_body(dim, zero, False, "never")
+    body = list_body(dim, *terms, zero, False, "always")
 
-    st = sim.state
-    model, P, G = st.model, st.P, st.G
-    f = model.view(st.fluid, model.fluid_view)
-    w = model.view(st.walls, model.wall_view)
-    dim, dtype, init, pair1, finish, pair2, _ = model._interaction_parts
-    zero = np.dtype(dtype).type(0)
-    n = st.fluid.n
-    r2 = dtype(float(P.rc2) * (1 + a.skin) ** 2)
-    build, run_for = make_cuda_kernels(dim, init, pair1, pair2 if pair2 is not None else pair1, finish, zero)
-    s = _stream()
-    grid = (_blocks(n), THREADS, s)
-    c1 = cuda.device_array(n, np.uint32)
-    c2 = cuda.device_array(n, np.uint32)
+    @njit(parallel=True, fastmath=True)
+    def build(I, J1, J2, G, r2, L):
+        for i in prange(I.x.shape[1]):
+            build_one(i, I, J1, J2, G, r2, L)
+
+    @njit(parallel=True, fastmath=True)
+    def run(I, J1, J2, P, L):
+        for i in prange(I.x.shape[1]):
+            body(i, I, J1, J2, P, L)
+
+    return build, run
+
+
+def cuda_loops(dim, terms, zero, T):
+    """The same as CUDA kernels, one thread per particle, the lists neighbour-major:
+    build[...](I, J1, J2, G, r2, L) and run[...](I, J2, Pd, L) (J1 is I; ``Pd``: P's record
+    on the device, read back into the model's namedtuple of type T as the backend's kernels
+    do)."""
+    from wcsph.backends.cuda import _loader
+
+    build_one = list_build_body(dim, zero, True, "never")
+    body = list_body(dim, *terms, zero, True, "never")
+    load = _loader(T)
+
+    @cuda.jit
+    def build(I, J1, J2, G, r2, L):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            build_one(i, I, J1, J2, G, r2, L)
+
+    @cuda.jit
+    def run(I, J2, Pd, L):
+        i = cuda.grid(1)
+        if i < I.x.shape[1]:
+            body(i, I, I, J2, load(Pd), L)
+
+    return build, run
+
+
+def make_lists(n, build, neighbour_major, empty, top):
+    """The lists of n particles (a ``ListView`` over the fluid view's x and cell, given by
+    ``build(L)``), their length grown until every particle's neighbours fit.
+    ``empty(shape)``: an uninitialised uint32 array of the backend; ``top(a)``: an array's
+    largest value, on the host."""
     cap = 8
     while True:
-        l1 = cuda.device_array((cap, n), np.uint32)
-        l2 = cuda.device_array((cap, n), np.uint32)
-        build[grid](f, f, w, G, r2, c1, l1, c2, l2)
-        top = max(int(c1.copy_to_host(stream=s).max()), int(c2.copy_to_host(stream=s).max()))
-        s.synchronize()
-        if top <= cap:
-            break
-        cap = int(top * 1.2) + 1
-    run = run_for(type(P))
-    Pd = _params(P)
-    dvdt = st.fluid["dvdt"]
-    model.interaction(f, f, w, P, G)
-    ref = dvdt.copy_to_host(stream=s)
-    run[grid](f, w, Pd, c1, l1, c2, l2)
-    got = dvdt.copy_to_host(stream=s)
-    s.synchronize()
-    dv = float(np.max(np.abs(got - ref)) / np.max(np.abs(ref)))
-    h1, h2 = c1.copy_to_host(), c2.copy_to_host()
-    print(f"{a.case} (cuda): {n} fluid, {st.walls.n} wall particles, skin {a.skin} of the support; "
-          f"list: {h1.mean():.1f} fluid + {h2.mean():.1f} wall neighbours a particle (cap {cap}); "
-          f"list pass vs walk: largest difference {dv:.2e} (dv/dt), relative")
-    agree(dv, dtype)
-    from numba import config
+        shape = (cap, n) if neighbour_major else (n, cap)
+        L = build(empty(n), empty(shape), empty(n), empty(shape))
+        most = max(top(L.count1), top(L.count2))
+        if most <= cap:
+            return L
+        cap = int(most * 1.2) + 1
 
-    def mark():  # a point of the stream's timeline: a CUDA event; wall clock in the simulator
-        if config.ENABLE_CUDASIM:
-            s.synchronize()
-            return time.perf_counter()
-        e = cuda.event()
-        e.record(s)
-        return e
 
-    def seconds(e0, e1):
-        if config.ENABLE_CUDASIM:
-            return e1 - e0
-        e1.synchronize()
-        return e0.elapsed_time(e1) / 1e3
+def compile_for_gpu(sim, cc=(9, 0)):
+    """Compile the two CUDA kernels to PTX for capability ``cc`` with the argument types a GPU
+    run passes them (taken from the CPU run ``sim``: the cell starts in the device's int64),
+    as ``wcsph.validation.ptx`` does the backend's: the simulator runs their Python source and
+    accepts what the CUDA compiler may refuse."""
+    from numba import typeof
 
-    walk_t, build_t, list_t = [], [], []
-    for _ in range(a.rounds):
-        cuda.synchronize()
-        e0 = mark()
-        model.interaction(f, f, w, P, G)
-        e1 = mark()
-        build[grid](f, f, w, G, r2, c1, l1, c2, l2)
-        e2 = mark()
-        run[grid](f, w, Pd, c1, l1, c2, l2)
-        e3 = mark()
-        walk_t.append(seconds(e0, e1))
-        build_t.append(seconds(e1, e2))
-        list_t.append(seconds(e2, e3))
-    return walk_t, build_t, list_t
+    from wcsph.backends.cuda import params_record
+    from wcsph.validation.ptx import _use_capability, _with_device_starts
+
+    _use_capability(cc)
+    st = sim.state
+    model = st.model
+    f = _with_device_starts(model.view(st.fluid, model.fluid_view))
+    w = _with_device_starts(model.view(st.walls, model.wall_view))
+    dim, dtype, init, pair1, finish, pair2, _ = model._interaction_parts
+    zero = np.dtype(dtype).type(0)
+    build, run = cuda_loops(dim, (init, pair1, pair2 if pair2 is not None else pair1, finish), zero, type(st.P))
+    n = st.fluid.n
+    L = ListView(f.x, f.cell, *(np.zeros(s, np.uint32) for s in (n, (8, n), n, (8, n))))
+    r2 = np.dtype(dtype).type(st.P.rc2)
+    for name, kernel, args in (("build", build, (f, f, w, st.G, r2, L)), ("list pass", run, (f, w, params_record(st.P), L))):
+        t0 = time.perf_counter()
+        ptx, _ = cuda.compile_ptx(kernel.py_func, tuple(typeof(x) for x in args), cc=cc)
+        print(f"{name}: {len(ptx)} characters of PTX for sm_{cc[0]}{cc[1]} in {time.perf_counter() - t0:.1f} s")
+
+
+def clock(cuda_on):
+    """(mark, seconds): a point of the run's timeline and the seconds between two: CUDA
+    events on the backend's stream on a GPU, the wall clock after each launch elsewhere (the
+    CPU, Numba's CUDA simulator)."""
+    if cuda_on and not numba_config.ENABLE_CUDASIM:
+        from wcsph.backends.cuda import _stream
+
+        def mark():
+            e = cuda.event()
+            e.record(_stream())
+            return e
+
+        def seconds(e0, e1):
+            e1.synchronize()
+            return e0.elapsed_time(e1) / 1e3
+
+        return mark, seconds
+
+    def mark():
+        if cuda_on:
+            cuda.synchronize()
+        return time.perf_counter()
+
+    return mark, lambda t0, t1: t1 - t0
 
 
 def main():
@@ -262,55 +239,79 @@ def main():
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--backend", default="cpu", choices=("cpu", "cuda"))
     ap.add_argument("--precision", default="float32", choices=("float32", "float64"))
+    ap.add_argument("--ptx", action="store_true", help="compile the CUDA kernels for sm_90 (no GPU needed) and stop")
     a = ap.parse_args()
     print(host())
-    sim = setup(a.case, a.n, precision=a.precision, backend=a.backend)
-    if a.backend == "cuda":
-        report(*main_cuda(a, sim))
+    sim = setup(a.case, a.n, precision=a.precision, backend="cpu" if a.ptx else a.backend)
+    if a.ptx:
+        compile_for_gpu(sim)
         return
     st = sim.state
-    model, P, G = st.model, st.P, st.G
+    model, P, G, be = st.model, st.P, st.G, st.backend
+    on_gpu = a.backend == "cuda"
     f = model.view(st.fluid, model.fluid_view)
     w = model.view(st.walls, model.wall_view)
     dim, dtype, init, pair1, finish, pair2, _ = model._interaction_parts
+    terms = (init, pair1, pair2 if pair2 is not None else pair1, finish)
     zero = np.dtype(dtype).type(0)
-    n = st.fluid.n
-    rc2 = float(P.rc2)
-    r2 = dtype(rc2 * (1 + a.skin) ** 2)
-    build = make_list_builder(dim, zero)
-    lpass = make_list_pass(dim, init, pair1, pair2 if pair2 is not None else pair1, finish, zero)
-    c1 = np.zeros(n, np.uint32)
-    c2 = np.zeros(n, np.uint32)
-    cap = 8
-    while True:
-        l1 = np.empty((n, cap), np.uint32)
-        l2 = np.empty((n, cap), np.uint32)
-        build(f, f, w, G, r2, c1, l1, c2, l2)
-        if max(c1.max(), c2.max()) <= cap:
-            break
-        cap = int(max(c1.max(), c2.max()) * 1.2) + 1
+    r2 = dtype(float(P.rc2) * (1 + a.skin) ** 2)  # the list's radius: the support and the skin
+    if on_gpu:
+        from wcsph.backends.cuda import THREADS, _blocks, _params, _stream
+
+        build_k, run_k = cuda_loops(dim, terms, zero, type(P))
+        launch = (_blocks(st.fluid.n), THREADS, _stream())
+
+        def empty(shape):
+            return cuda.device_array(shape, np.uint32, stream=_stream())
+
+        def build(L):
+            build_k[launch](f, f, w, G, r2, L)
+
+        def list_pass(L):
+            run_k[launch](f, w, _params(P), L)
+    else:
+        build_c, run_c = cpu_loops(dim, terms, zero)
+
+        def empty(shape):
+            return np.empty(shape, np.uint32)
+
+        def build(L):
+            build_c(f, f, w, G, r2, L)
+
+        def list_pass(L):
+            run_c(f, f, w, P, L)
+
+    def build_new(c1, l1, c2, l2):
+        L = ListView(f.x, f.cell, c1, l1, c2, l2)
+        build(L)
+        return L
+
+    L = make_lists(st.fluid.n, build_new, on_gpu, empty, lambda c: int(be.to_host(c).max()))
+    fields = ["dvdt"] + (["drhodt"] if "drhodt" in st.fluid.arrays else [])
     model.interaction(f, f, w, P, G)
-    ref = (st.fluid["dvdt"].copy(), st.fluid.arrays.get("drhodt", st.fluid["rho"]).copy())
-    lpass(f, f, w, P, c1, l1, c2, l2)
-    got = (st.fluid["dvdt"], st.fluid.arrays.get("drhodt", st.fluid["rho"]))
-    dv = float(np.max(np.abs(got[0] - ref[0])) / np.max(np.abs(ref[0])))
-    dr = float(np.max(np.abs(got[1] - ref[1])) / max(np.max(np.abs(ref[1])), 1e-30))
-    print(f"{a.case}: {n} fluid, {st.walls.n} wall particles, skin {a.skin} of the support; "
-          f"list: {c1.mean():.1f} fluid + {c2.mean():.1f} wall neighbours a particle (cap {cap}); "
-          f"list pass vs walk: largest difference {dv:.2e} (dv/dt), {dr:.2e} (drho/dt), relative")
-    agree(max(dv, dr), dtype)
+    ref = [np.array(a, copy=True) for a in st.host(st.fluid, *fields)]  # on the CPU, the arrays themselves
+    list_pass(L)
+    got = st.host(st.fluid, *fields)
+    diff = max(float(np.max(np.abs(g - r)) / max(np.max(np.abs(r)), 1e-30)) for g, r in zip(got, ref))
+    c1, c2 = be.to_host(L.count1), be.to_host(L.count2)
+    print(f"{a.case} ({a.backend}): {st.fluid.n} fluid, {st.walls.n} wall particles, skin {a.skin} of the "
+          f"support; list: {c1.mean():.1f} fluid + {c2.mean():.1f} wall neighbours a particle (length "
+          f"{L.list1.shape[0 if on_gpu else 1]}); list pass vs walk: largest difference {diff:.2e} "
+          f"({', '.join(fields)}), relative")
+    agree(diff, dtype)
+    mark, seconds = clock(on_gpu)
     walk_t, build_t, list_t = [], [], []
     for _ in range(a.rounds):
-        t0 = time.perf_counter()
+        t0 = mark()
         model.interaction(f, f, w, P, G)
-        t1 = time.perf_counter()
-        build(f, f, w, G, r2, c1, l1, c2, l2)
-        t2 = time.perf_counter()
-        lpass(f, f, w, P, c1, l1, c2, l2)
-        t3 = time.perf_counter()
-        walk_t.append(t1 - t0)
-        build_t.append(t2 - t1)
-        list_t.append(t3 - t2)
+        t1 = mark()
+        build(L)
+        t2 = mark()
+        list_pass(L)
+        t3 = mark()
+        walk_t.append(seconds(t0, t1))
+        build_t.append(seconds(t1, t2))
+        list_t.append(seconds(t2, t3))
     report(walk_t, build_t, list_t)
 
 

@@ -1,7 +1,11 @@
 """The cell-list loop visits exactly the pairs a brute-force search finds."""
+import os
+import subprocess
+import sys
 from collections import namedtuple
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 from numba.extending import register_jitable
 
@@ -86,3 +90,27 @@ def test_particles_leaving_the_domain_are_dropped():
     s = ParticleSet("p", 2, {"x": x, "tag": np.arange(3.0)})
     assert CpuBackend().sort(s, Grid.covering([0, 0], [1, 1], 0.25)) == 1
     assert s.n == 2 and sorted(s["tag"]) == [0.0, 1.0]
+
+
+NEIGHBOUR_LIST = os.path.join(os.path.dirname(__file__), "..", "..", "benchmarks", "neighbour_list.py")
+
+
+@pytest.mark.validation
+@pytest.mark.parametrize("mode", [["--precision", "float64"], ["--backend", "cuda", "--n", "300"], ["--ptx"]],
+                         ids=["cpu", "cuda-simulator", "ptx"])
+def test_the_neighbour_list_benchmark_gives_the_walks_results(mode):
+    """``benchmarks/neighbour_list.py`` (README, Speed): the interaction pass over a neighbour
+    list with a skin gives the cell walk's results (the script stops otherwise), on the CPU and
+    in Numba's CUDA simulator, and its kernels compile to PTX for sm_90 (what the device check
+    runs on a GPU)."""
+    if mode[0] == "--ptx":
+        from wcsph.validation.ptx import available
+
+        if available() is not None:
+            pytest.skip(available())
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1") if "cuda" in mode else dict(os.environ)
+    args = ["--n", "2000", "--rounds", "1", *mode]
+    r = subprocess.run([sys.executable, NEIGHBOUR_LIST, "dam_break_3d_bi", *args], capture_output=True, text=True,
+                       env=env, timeout=900, cwd=os.path.dirname(NEIGHBOUR_LIST))
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert ("PTX for sm_90" in r.stdout) if mode[0] == "--ptx" else ("list pass vs walk" in r.stdout), r.stdout
