@@ -21,9 +21,13 @@
 #       --implementation cp --platform manylinux2014_x86_64 -d .whl meshio==5.3.5
 #
 # and the call names .whl in `carry`, e.g. with a limit that leaves time to rerun:
-#   bash benchmarks/device_check.sh            (timeout_s 540)
+#   bash benchmarks/device_check.sh tests      (part 1 alone: 4 minutes at most, timeout_s 300)
+#   bash benchmarks/device_check.sh speed      (part 2: 6 minutes at most, timeout_s 420)
+#   bash benchmarks/device_check.sh list       (part 3: 4.5 minutes at most, timeout_s 330)
+# one call each (all three, the default, can take 14.5 minutes: more than one call may run)
 # Each part is bounded by its own timeout, and its output goes to $OUT as it runs.
 set -u
+PART=${1:-all}
 OUT=${OUT:-runs/device_check}
 mkdir -p "$OUT"
 export PYTHONUNBUFFERED=1
@@ -34,15 +38,21 @@ fi
 export PYTHONPATH="$PWD/src${PYTHONPATH:+:$PYTHONPATH}"
 { nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv; python3 -c "import numba, numba_cuda; print('numba', numba.__version__, 'numba-cuda', numba_cuda.__version__)"; } 2>&1 | tee "$OUT/machine.txt"
 
+if [ "$PART" = all ] || [ "$PART" = tests ]; then
 WCSPH_CUDA_DEVICE=1 timeout 240 python3 -m pytest -q -p no:cacheprovider -o addopts="" -n 4 \
     tests/backends/test_cuda_sim.py -k "not benchmark and not reads_the_device_once" 2>&1 | tee "$OUT/tests.log"
+fi
 
+if [ "$PART" = all ] || [ "$PART" = speed ]; then
 timeout 240 python3 benchmarks/gpu.py --json 2>&1 | tee "$OUT/gpu.jsonl"
 timeout 120 python3 benchmarks/gpu.py --json --constant-dt --cases 2d-100k spheric2 2>&1 | tee -a "$OUT/gpu.jsonl"
+fi
 
 # 3. a neighbour list with a skin against the cell walk, the 3D interaction pass alone
 #    (README, Speed): SPHERIC 2 at dp 0.01 and the 3D dam break at 1 M, float32
+if [ "$PART" = all ] || [ "$PART" = list ]; then
 for s in 0.05 0.1; do
     timeout 90 python3 benchmarks/neighbour_list.py spheric2_3d --n 652000 --backend cuda --skin $s 2>&1 | tee -a "$OUT/neighbour_list.txt"
 done
 timeout 90 python3 benchmarks/neighbour_list.py dam_break_3d_bi --n 1000000 --backend cuda --skin 0.05 2>&1 | tee -a "$OUT/neighbour_list.txt"
+fi
