@@ -8,7 +8,7 @@ from numba import literal_unroll, njit, prange
 from numba.extending import overload, register_jitable
 
 from .numba_cache import saved_first
-from .walk import make_periodic_walk, make_run_visitor, particle_check
+from .walk import body_term, make_periodic_walk, make_run_visitor, particle_check
 
 
 #: below this many particles the sort, the per-particle maps and the checks run on one
@@ -59,6 +59,20 @@ def _counting_sort(cell, ncells, start, perm):
         c = cell[i]
         perm[fill[c]] = i
         fill[c] += one
+
+
+@njit(cache=True)
+def _body_sums(x, load, body, rows, refs, out):
+    """out[r] = (force, torque about refs[r]) summed over the wall points i with
+    rows[body[i]] = r, in the points' order (``CpuBackend.body_sums``)."""
+    out[:] = 0.0
+    for i in range(x.shape[1]):
+        b = body[i]
+        if b < 0 or b >= rows.size or rows[b] < 0:
+            continue
+        r = rows[b]
+        for comp in range(6):
+            out[r, comp] += body_term(x, load, refs, i, r, comp)
 
 
 def _copy(src, perm, dst):
@@ -460,6 +474,16 @@ class CpuBackend:
     def stage(self, name, a):
         """A small host array for the loops after it (a GPU's ``stage`` copies it there)."""
         return np.ascontiguousarray(a)
+
+    def body_sums(self, x, load, body, rows, refs):
+        """The fluid's load on each body as one (bodies, 6) float64 host array: row r holds
+        the force (x, y, z) and the torque about refs[r] (x, y, z; in 2D z alone) summed over
+        the wall points i whose body b = body[i] has rows[b] = r (-1: none). ``x``, ``load``:
+        the walls' positions and loads (dim, n); ``rows``, ``refs``: host arrays (refs
+        (bodies, 3))."""
+        out = np.empty((len(refs), 6))
+        _body_sums(x, load, body, np.ascontiguousarray(rows, dtype=np.int64), np.ascontiguousarray(refs, dtype=float), out)
+        return out
 
     def check(self, pset, owned=None):
         """(max |v|^2, max |a|^2, non-finite count) over ``pset``, or its particles with

@@ -33,7 +33,7 @@ try:  # numba-cuda's own (the CUDA pipeline does not know Numba's)
 except ImportError:  # the simulator runs the Python source
     from numba import literal_unroll
 
-from .walk import make_periodic_walk, make_run_visitor, particle_check
+from .walk import body_term, make_periodic_walk, make_run_visitor, particle_check
 
 if numba_config.ENABLE_CUDASIM:
     # Numba's CUDA simulator runs each thread of a block as a Python thread, and every
@@ -378,6 +378,34 @@ def _gather2(src, perm, dst):
     if k < dst.shape[1]:
         for d in range(src.shape[0]):
             dst[d, k] = src[d, perm[k]]
+
+
+@cuda.jit
+def _body_sums(x, load, body, rows, refs, out):
+    """One block per entry (r, comp) of out (bodies, 6): its threads sum body_term over the
+    wall points of row r in a fixed stride and reduce in shared memory (the same order every
+    launch: no atomics, so a body's motion repeats bit for bit)."""
+    r = cuda.blockIdx.x // 6
+    comp = cuda.blockIdx.x % 6
+    t = cuda.threadIdx.x
+    tile = cuda.shared.array(THREADS, dtype=np.float64)
+    s = 0.0
+    i = t
+    while i < body.size:
+        b = body[i]
+        if b >= 0 and b < rows.size and rows[b] == r:
+            s += body_term(x, load, refs, i, r, comp)
+        i += THREADS
+    tile[t] = s
+    cuda.syncthreads()
+    step = THREADS // 2
+    while step > 0:
+        if t < step:
+            tile[t] += tile[t + step]
+        cuda.syncthreads()
+        step //= 2
+    if t == 0:
+        out[r, comp] = tile[0]
 
 
 @cuda.jit
@@ -1235,6 +1263,20 @@ class CudaBackend:
         if ring is None:
             ring = _RINGS[key] = _UploadRing(a.shape, a.dtype)
         return ring(a)
+
+    def body_sums(self, x, load, body, rows, refs):
+        """As the CPU backend's ``body_sums``, reduced on the device: the host reads the
+        (bodies, 6) sums, not the walls' positions, loads and body ids (``rows`` uploaded
+        once per value, ``refs`` staged)."""
+        nb = len(refs)
+        key = ("body_sums", nb)
+        out = self.__dict__.get(key)
+        if out is None:
+            out = self.__dict__[key] = cuda.device_array((nb, 6), dtype=np.float64)
+        rows_d = self.stage("body_rows", np.ascontiguousarray(rows, dtype=np.int64))
+        refs_d = self.stage("body_refs", np.ascontiguousarray(refs, dtype=np.float64))
+        _body_sums[6 * nb, THREADS, _stream()](x, load, body, rows_d, refs_d, out)
+        return _read(out)
 
     def check(self, pset, owned=None):
         """As the CPU backend's ``check``. In the same reduction, and the same copy to the

@@ -19,6 +19,31 @@ def particle_check(x, v, a, i):
     return s, q, ok and math.isfinite(s) and math.isfinite(q)
 
 
+@register_jitable
+def body_term(x, load, refs, i, r, comp):
+    """Wall point i's share of row r of a body-load sum (``backend.body_sums``): its load
+    along axis ``comp`` (0-2), or its torque about the body's reference point refs[r] about
+    axis comp - 3 (3-5; in 2D only 5, the torque about z, is not zero)."""
+    dim = x.shape[0]
+    if comp < dim:
+        return float(load[comp, i])
+    if comp < 3:
+        return 0.0
+    rx = float(x[0, i]) - refs[r, 0]
+    ry = float(x[1, i]) - refs[r, 1]
+    fx = float(load[0, i])
+    fy = float(load[1, i])
+    if dim == 2:
+        return rx * fy - ry * fx if comp == 5 else 0.0
+    rz = float(x[2, i]) - refs[r, 2]
+    fz = float(load[2, i])
+    if comp == 3:
+        return ry * fz - rz * fy
+    if comp == 4:
+        return rz * fx - rx * fz
+    return rx * fy - ry * fx
+
+
 def make_run_visitor(dim, pair, zero, inline="never", branchless=False):
     """``visit(i, xi, yi, zi, I, J, j0, j1, P, acc)``: apply ``pair`` to every j in
     [j0, j1) within the support radius (``P.rc2``). j0 and j1 come from the unsigned cell

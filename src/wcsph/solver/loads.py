@@ -57,16 +57,25 @@ def loads(state, bodies, which):
 def _wall_point_loads(state, bodies, named):
     be, w, par = state.backend, state.walls, state.par
     state.settle()
-    load = be.to_host(state.model.wall_loads(state.fluid, w, state.P, state.G)).astype(float)
+    load = state.model.wall_loads(state.fluid, w, state.P, state.G)
+    refs = np.zeros((len(named), 3))
+    for r, b in enumerate(named):
+        refs[r, :state.dim] = bodies.reference(b, state.t)
+    if par is None:  # summed by the backend: on a GPU only the sums come to the host
+        rows = np.full(len(bodies.names), -1, dtype=np.int64)
+        rows[list(named)] = np.arange(len(named))
+        sums = be.body_sums(w["x"], load, w["body"], rows, refs)
+        return [(s[:state.dim].copy(), s[3:] if state.dim == 3 else s[5:]) for s in sums]
+    load = be.to_host(load).astype(float)
     x, body = state.host(w, "x", "body")
     x = x.astype(float)
-    if par is not None:  # each element from the rank whose slab holds it (all its neighbours are there)
-        load = load * (par.owner(par.column(x)) == par.rank)
+    # each element from the rank whose slab holds it (all its neighbours are there)
+    load = load * (par.owner(par.column(x)) == par.rank)
     out = []
-    for b in named:
+    for r, b in enumerate(named):
         sel = body == b
         f = load[:, sel]
-        r = x[:, sel] - bodies.reference(b, state.t)[:, None]
-        torque = [np.sum(r[0] * f[1] - r[1] * f[0])] if state.dim == 2 else np.cross(r.T, f.T).sum(axis=0)
+        rr = x[:, sel] - refs[r, :state.dim, None]
+        torque = [np.sum(rr[0] * f[1] - rr[1] * f[0])] if state.dim == 2 else np.cross(rr.T, f.T).sum(axis=0)
         out.append((f.sum(axis=1), np.asarray(torque)))
     return out

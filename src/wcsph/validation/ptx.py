@@ -189,6 +189,7 @@ def _backend_kernels(dtype, dim):
                                              n)),
         ("_wrap", cb._wrap, (x, f[:3], f[:3], f[:3], f[:3], n, i64, i64)),
         ("_reduce_blocks", cb._reduce_blocks, (part, i8, i8, False, part, part[:, :1], i64[:1])),
+        ("_body_sums", cb._body_sums, (x, x, i64, i64, np.zeros((2, 3)), np.zeros((2, 6)))),
         ("_check_blocks", cb._check_blocks, (x, x, x, f[:3], f[:3], n, n, n, n, n, i8, False, i8, part, part[:, :1],
                                              i64[:1], True, i64, i64, i64, n)),
     ]
