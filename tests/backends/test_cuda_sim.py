@@ -224,6 +224,19 @@ def test_a_cuda_step_reads_the_device_once_per_check_interval(name, dp, launches
     assert c["kernel arguments"] <= scalars, c
 
 
+@pytest.mark.validation
+def test_a_floating_body_reads_its_loads_as_sums():
+    """``floating_box_2d`` counted in the simulator: the body's force and torque are summed on
+    the device (``backend.body_sums``), so a step copies two small arrays to the host (the
+    sums and the check), not the walls' loads, positions and body ids (four copies before)."""
+    r = subprocess.run([sys.executable, COUNTS, "floating_box_2d", "--dp", "0.1", "--steps", "2", "--threads", "32",
+                        "--json"], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    c = json.loads(r.stdout.strip().splitlines()[-1])
+    assert c.get("device->host copy", 0) == 2 and c.get("allocation", 0) == 0, c
+    assert c.get("launch off the stream", 0) == 0, c
+
+
 def test_moving_walls_are_sorted_without_reading_their_count():
     """``couette_2d`` (its plate moving along the periodic axis) counted in the simulator:
     the moving walls' sort reads no count back where their bounds (``Bodies.bounds``) lie
