@@ -396,16 +396,7 @@ def _body_sums(x, load, body, rows, refs, out):
         if b >= 0 and b < rows.size and rows[b] == r:
             s += body_term(x, load, refs, i, r, comp)
         i += THREADS
-    tile[t] = s
-    cuda.syncthreads()
-    step = THREADS // 2
-    while step > 0:
-        if t < step:
-            tile[t] += tile[t + step]
-        cuda.syncthreads()
-        step //= 2
-    if t == 0:
-        out[r, comp] = tile[0]
+    _block_tree(tile, s, False, r, out, comp)
 
 
 @cuda.jit
