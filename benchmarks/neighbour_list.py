@@ -5,7 +5,8 @@ the same walk and reused by the step's evaluations (symplectic Verlet: two).
 
 The list holds, for fluid particle i, the fluid and wall particles j of the cell walk within
 (1 + skin) times the support, in the walk's order, so the list pass evaluates the same pairs
-in the same order. Printed: the pass over the walk, the list's build and the pass over the
+(the fluid's before the walls', where the walk alternates per row of cells: the results agree
+to round-off, and the script stops when they do not). Printed: the pass over the walk, the list's build and the pass over the
 list (medians of alternating rounds), the neighbours per particle, and the step's share:
 two walk passes against one build and two list passes.
 
@@ -33,19 +34,21 @@ from _measure import host, setup
 
 #: particle i of the build: its position and cell (what the walk reads), and its lists
 ListView = namedtuple("ListView", "x cell count1 list1 count2 list2")
-#: particle i of the build: its position and cell (what the walk reads), and its lists
-ListView = namedtuple("ListView", "x cell count1 list1 count2 list2")
 
 
-def list_build_body(dim, zero, neighbour_major, inline):
+def list_build_body(dim, zero, neighbour_major):
     """build(i, I, J1, J2, G, r2, L): the j of J1 and J2 within sqrt(r2) of particle i of
     I, in the cell walk's order (the backend's: per row of cells, J1's run, then J2's), into
     L's lists (a ``ListView``), at most the list's length; the counts go on past it, so that
     the caller sees the overflow. ``neighbour_major``: list[m, i] (a GPU's warp reads its
     m-th neighbours in one transaction), else list[i, m] (a CPU thread reads its own row).
-    ``inline``: as the backends' walk (the CPU's loop inlines, numba-cuda does not)."""
 
-    @register_jitable(inline=inline)
+    Its own walk, not a pass of the backend's (``make_pass`` with a pair that appends j):
+    that build, tried, took 2.5 times as long on the CPU (a call per accepted pair), and with
+    the pair inlined (``inline="always"``) Numba miscompiled the stores; nor is this body
+    inlined, for the same reason (its lists came back wrong)."""
+
+    @register_jitable
     def run_into(i, xi, yi, zi, J, j0, j1, r2, lst, n):
         for j in range(j0, j1):
             dx = xi - J.x[0, j]
@@ -60,7 +63,7 @@ def list_build_body(dim, zero, neighbour_major, inline):
                 n += 1
         return n
 
-    @register_jitable(inline=inline)
+    @register_jitable
     def build(i, I, J1, J2, G, r2, L):
         c = I.cell[i]
         xi = I.x[0, i]
@@ -121,7 +124,7 @@ def list_body(dim, init, pair1, pair2, finish, zero, neighbour_major, inline):
 def cpu_loops(dim, terms, zero):
     """(build(I, J1, J2, G, r2, L), run(I, J1, J2, P, L)): the list's build and the
     interaction pass over it, as the CPU backend's loops (one thread per chunk of particles)."""
-    build_one = list_build_body(dim, zero, False, "never")
+    build_one = list_build_body(dim, zero, False)
     body = list_body(dim, *terms, zero, False, "always")
 
     @njit(parallel=True, fastmath=True)
@@ -144,7 +147,7 @@ def cuda_loops(dim, terms, zero, T):
     do)."""
     from wcsph.backends.cuda import _loader
 
-    build_one = list_build_body(dim, zero, True, "never")
+    build_one = list_build_body(dim, zero, True)
     body = list_body(dim, *terms, zero, True, "never")
     load = _loader(T)
 
