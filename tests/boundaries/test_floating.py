@@ -129,6 +129,33 @@ def test_boundary_particle_loads_carry_the_weight_of_the_water():
     assert abs(np.mean([b["tank_fx"] for b in loads])) < 1e-3 * weight
 
 
+@pytest.mark.parametrize("model", ["classic", "bi"])
+def test_the_load_passes_visit_only_the_measured_bodies(model):
+    """A named obstacle in a tank that is not named: its load is computed over its own wall
+    points only (the walls' ``measured``), the tank's points are not visited (their load is
+    left as it was), and the obstacle's force and torque are those of a pass over every
+    point, to the last bit."""
+    from wcsph.case.config import load
+
+    sim = wcsph.Simulation(load("hydrostatic_2d", [
+        ("dp", 0.05), ("model.name", model), ("output.vtk", False), ("physics.gravity_ramp_time", 0.0),
+        ("obstacle", [{"name": "post", "min": [0.4, 0.0], "max": [0.6, 0.3]}])]))
+    for _ in range(5):
+        sim.step(sim.time_step())
+    w, be = sim.walls, sim.backend
+    body, measured = be.to_host(w["body"]), be.to_host(w["measured"])
+    assert np.array_equal(measured, (body == 1).astype(measured.dtype)) and 0 < measured.sum() < w.n
+    w.add("load", "vector", sim.state.model.dtype, be, scratch=True)
+    w["load"] = be.to_device(np.full((2, w.n), np.nan))
+    some = sim.body_loads()
+    load = be.to_host(w["load"])
+    assert np.isnan(load[:, body == 0]).all() and np.isfinite(load[:, body == 1]).all()
+    assert abs(some["post_fx"]) > 0 and abs(some["post_fy"]) > 0
+    w["measured"] = be.to_device(np.ones(w.n, dtype=measured.dtype))
+    every = sim.body_loads()
+    assert np.isfinite(be.to_host(w["load"])).all() and every == some
+
+
 # ------------------------------------------------------------------ constraints and contact
 def _body(dim, **kw):
     from wcsph.boundaries.floating import FloatingBody

@@ -8,7 +8,7 @@ from numba import literal_unroll, njit, prange
 from numba.extending import overload, register_jitable
 
 from .numba_cache import saved_first
-from .walk import body_term, make_periodic_walk, make_run_visitor, particle_check
+from .walk import body_term, every, make_periodic_walk, make_run_visitor, particle_check
 
 
 #: below this many particles the sort, the per-particle maps and the checks run on one
@@ -147,7 +147,8 @@ def _check(x, v, a, owned):
     return vmax2, amax2, bad
 
 
-def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, branchless=False, periodic=None):
+def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, branchless=False, periodic=None,
+                    keep=None):
     """The one CPU neighbour loop: for each particle i of set I, visit the particles of
     J1 (and J2 when ``use2``) within the support radius, fold them into an accumulator with
     ``pair*``, then store it with ``finish``. Per cell row the 2k + 1 x-adjacent cells
@@ -160,7 +161,10 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, bra
     and still be cached, hence the Python wrapper.
 
     ``periodic`` (a flag per axis, or None): the loop of a grid with periodic axes, which
-    walks the cells around i through ``walk.make_periodic_walk``."""
+    walks the cells around i through ``walk.make_periodic_walk``. ``keep`` (keep(i, I, P), or
+    None for every i): the particles of I the pass visits; the others keep what they hold."""
+    sift = keep is not None  # a constant of the compiled loop: without keep, no test at all
+    keep = every if keep is None else keep
     visit1 = make_run_visitor(dim, pair1, zero, inline="always", branchless=branchless)
     visit2 = make_run_visitor(dim, pair2, zero, inline="always", branchless=branchless)
     if periodic is not None and any(periodic):
@@ -170,6 +174,8 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, bra
         @njit(parallel=True, fastmath=True, cache=cache)
         def run_periodic(I, J1, J2, P, G):
             for i in prange(I.x.shape[1]):
+                if sift and not keep(i, I, P):
+                    continue
                 zi = I.x[2, i] if dim == 3 else zero
                 acc = walk(i, I.x[0, i], I.x[1, i], zi, I.cell[i], I, J1, J2, P, G, init(i, I, P))
                 finish(i, I, P, acc)
@@ -182,6 +188,8 @@ def _make_pass_loop(dim, init, pair1, pair2, finish, use2, zero, cache=True, bra
         k = G.k
         kz = k if dim == 3 else 0
         for i in prange(I.x.shape[1]):
+            if sift and not keep(i, I, P):
+                continue
             c = I.cell[i]
             xi = I.x[0, i]
             yi = I.x[1, i]
@@ -321,12 +329,13 @@ class CpuBackend:
         return np.asarray(a)
 
     def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False,
-                  periodic=None, then=None, parts=None):
+                  periodic=None, then=None, parts=None, keep=None):
         """The compiled loop of one pass. ``cache=False`` for passes whose set or parameter
         types live outside the package (Numba's cache index of the loop is shared by all its
         closures and must unpickle in every process). ``branchless``: a performance choice
         of the pass (see ``walk.make_run_visitor``); the result is the same. ``periodic``:
-        the grid's periodic axes (a flag per axis).
+        the grid's periodic axes (a flag per axis). ``keep``: keep(i, I, P), the particles of
+        I the pass visits (default every one); the others keep what they hold.
 
         ``then``: then(i, I, S, R, P) for each particle after its ``finish``, called as
         pass(I, J1, J2, P, G, S, R); it may write only what no particle of the pass reads.
@@ -338,7 +347,7 @@ class CpuBackend:
             return _then_after(parts, then)
         use2 = pair2 is not None
         return _make_pass_loop(dim, init, pair1, pair2 if use2 else pair1, finish, use2,
-                               np.dtype(dtype).type(0), cache, branchless, periodic)
+                               np.dtype(dtype).type(0), cache, branchless, periodic, keep)
 
     def wrap(self, pset, grid):
         """Particles of ``pset`` that crossed a periodic side re-enter at the other."""

@@ -33,7 +33,7 @@ try:  # numba-cuda's own (the CUDA pipeline does not know Numba's)
 except ImportError:  # the simulator runs the Python source
     from numba import literal_unroll
 
-from .walk import body_term, make_periodic_walk, make_run_visitor, particle_check
+from .walk import body_term, every, make_periodic_walk, make_run_visitor, particle_check
 
 if numba_config.ENABLE_CUDASIM:
     # Numba's CUDA simulator runs each thread of a block as a Python thread, and every
@@ -610,10 +610,12 @@ def _wrap(x, lo, length, inv_cell, origin, k, real, axes):
 PARKED = 1.0e30
 
 
-def _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic=None):
+def _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic=None, keep=None):
     """body(i, I, J1, J2, P, G): particle i's walk over the cells around it and its
     ``finish``, the same walk as the CPU backend's (a device function of the pass kernels and
-    of a tail's wall corrections)."""
+    of a tail's wall corrections); with ``keep``, only for the i that keep(i, I, P) holds."""
+    sift = keep is not None  # a constant of the compiled kernel: without keep, no test at all
+    keep = every if keep is None else keep
     visit1 = make_run_visitor(dim, pair1, zero)
     visit2 = make_run_visitor(dim, pair2, zero)
     if periodic is not None and any(periodic):
@@ -623,6 +625,8 @@ def _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic=None):
         def body_periodic(i, I, J1, J2, P, G):
             if I.cell[i] >= G.ncells:  # parked (``body`` below)
                 I.x[0, i] = PARKED
+                return
+            if sift and not keep(i, I, P):
                 return
             zi = I.x[2, i] if dim == 3 else zero
             acc = walk(i, I.x[0, i], I.x[1, i], zi, I.cell[i], I, J1, J2, P, G, init(i, I, P))
@@ -635,6 +639,8 @@ def _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic=None):
         c = I.cell[i]
         if c >= G.ncells:  # left the grid since a check the host has not read yet: parked
             I.x[0, i] = PARKED
+            return
+        if sift and not keep(i, I, P):
             return
         xi = I.x[0, i]
         yi = I.x[1, i]
@@ -653,7 +659,7 @@ def _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic=None):
     return body
 
 
-def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None, then=None):
+def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None, then=None, keep=None):
     """The one CUDA neighbour loop, one thread per i. ``then``: then(i, I, S, R, P) after
     i's ``finish``, in the same thread (launched with (S, R) after the pass's arguments).
 
@@ -661,7 +667,7 @@ def _make_pass_kernel(dim, init, pair1, pair2, finish, use2, zero, periodic=None
     dispatcher its arrays twice (about a hundred scalars for the fluid's), so J1 is left out
     when it is I (the fluid's own passes), J2 when the pass has no second set; T, the tuple
     of ``then``'s views, is empty without it."""
-    body = _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic)
+    body = _pass_body(dim, init, pair1, pair2, finish, use2, zero, periodic, keep)
     if then is None:
         @cuda.jit(device=True)
         def after(i, I, T, P):
@@ -1118,14 +1124,14 @@ class CudaBackend:
         return _read(a) if hasattr(a, "copy_to_host") else np.asarray(a)
 
     def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False,
-                  periodic=None, then=None, parts=None):
+                  periodic=None, then=None, parts=None, keep=None):
         """Same interface as the CPU backend; ``cache`` has no effect (kernels compile per
         process), nor ``branchless`` (a thread that skips a pair frees its warp's lane: the
         branch is the faster form on a GPU); ``then`` runs in the pass's own launch
         (``parts`` unused)."""
         use2 = pair2 is not None
         return _make_pass_kernel(dim, init, pair1, pair2 if use2 else pair1, finish, use2,
-                                 np.dtype(dtype).type(0), periodic, then)
+                                 np.dtype(dtype).type(0), periodic, then, keep)
 
     def wrap(self, pset, grid):
         if not grid.any_periodic or not pset.n:

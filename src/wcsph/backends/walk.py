@@ -20,6 +20,12 @@ def particle_check(x, v, a, i):
 
 
 @register_jitable
+def every(i, I, P):
+    """The ``keep`` of a pass that visits every particle of its set."""
+    return True
+
+
+@register_jitable
 def body_term(x, load, refs, i, r, comp):
     """Wall point i's share of row r of a body-load sum (``backend.body_sums``): its load
     along axis ``comp`` (0-2), or its torque about the body's reference point refs[r] about

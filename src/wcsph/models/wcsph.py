@@ -31,7 +31,7 @@ from numba.extending import register_jitable
 
 from ..physics import slots
 from ..physics import AfterStepPass, Ctx, FluidPass, WallCorrection, WallPass, WallVolume, compose
-from ..physics.loads import make_element_loads, make_particle_loads
+from ..physics.loads import make_element_loads, make_particle_loads, measured
 from ..physics.renormalization import make_shepard
 
 # The views a pass sees: only the fields the case's terms can read. A view with unused arrays
@@ -66,8 +66,8 @@ for _flags in __import__("itertools").product((False, True), repeat=len(_FLAGS))
     globals()[_name] = namedtuple(_name, _fields)
 FluidView = globals()[_fluid_view_name((False,) * len(_FLAGS))]
 ElementView = namedtuple("ElementView", "x v a n elementSize p rho cell start")
-#: boundary elements as the load pass writes them
-LoadView = namedtuple("LoadView", "x v a n elementSize load cell start")
+#: boundary elements as the load pass writes them (``measured``: the points it visits)
+LoadView = namedtuple("LoadView", "x v a n elementSize load measured cell start")
 #: boundary particles as the classic terms see them (Psi only), and with V = Psi/rho0, rho0
 ParticleWallView = namedtuple("ParticleWallView", "x v psi cell start")
 ParticleWallViewFull = namedtuple("ParticleWallViewFull", "x v psi vol rho cell start")
@@ -84,17 +84,17 @@ WALL_FIELDS = {"n": "vector", "elementSize": "scalar", "psi": "scalar", "vol": "
 _NDIM = {"scalar": 1, "vector": 2, "matrix": 2, "symmetric": 2}
 
 
-_LOAD_VIEWS = {}
+_EXTENDED_VIEWS = {}
 
 
-def _with_load(view):
-    """``view`` with a ``load`` field before the cell list (one class per view)."""
-    if view not in _LOAD_VIEWS:
-        fields = [f for f in view._fields if f not in ("cell", "start")] + ["load", "cell", "start"]
-        cls = namedtuple(view.__name__ + "Load", " ".join(fields))
+def _with(view, *extra):
+    """``view`` with the fields ``extra`` before the cell list (one class per view and extra)."""
+    if (view, extra) not in _EXTENDED_VIEWS:
+        fields = [f for f in view._fields if f not in ("cell", "start")] + list(extra) + ["cell", "start"]
+        cls = namedtuple(view.__name__ + "".join(e.capitalize() for e in extra), " ".join(fields))
         globals()[cls.__name__] = cls  # found by name, as every view class (compiled-loop caches)
-        _LOAD_VIEWS[view] = cls
-    return _LOAD_VIEWS[view]
+        _EXTENDED_VIEWS[view, extra] = cls
+    return _EXTENDED_VIEWS[view, extra]
 
 
 def _stores(ctx, eos, continuity, consistent, needs_pr, corrected, sound):
@@ -215,11 +215,17 @@ class WCSPH:
         #: for an integrator that runs them in its last map's loop (``Integrator.fuse_tail``)
         self.correction_walk = ((corrections[0].init, corrections[0].pair, corrections[0].store)
                                 if len(corrections) == 1 else None)
+        # the load passes visit only the points of the bodies whose loads are asked for (the
+        # walls' ``measured``): the tank's walls are most of the points in a floating-body case
         self.load_pass = None
         if self.boundary == "elements":  # the fluid's load on each element (body forces)
             shear = sel["viscous"].build(ctx, q).wall if sel["viscous"].build is not None else []
             self.load_pass = mk(dim, dtype, *make_element_loads(
-                ctx, compose(*shear) if shear else None, shared=self.consistent and sel["viscous"].nu is None))
+                ctx, compose(*shear) if shear else None, shared=self.consistent and sel["viscous"].nu is None),
+                keep=measured)
+        #: the wall passes the boundary particles' loads read, run again before them on those points
+        self.load_wall_passes = [(p, mk(dim, dtype, p.init, p.pair, p.store, keep=measured))
+                                 for p in declared if isinstance(p, WallPass) and p.loads]
 
         fluid, walls = [], []
         for slot in ("density", "pressure", "diffusive", "viscous", "xsph"):
@@ -247,7 +253,7 @@ class WCSPH:
         self.refreshed = ("p", "vol") + (("pr",) if "pr" in implied else ()) + (("c",) if self.needs_c else ())
 
         if self.boundary == "particles" and walls:  # the fluid's load on each wall particle
-            self.load_pass = mk(dim, dtype, *make_particle_loads(ctx, compose(*walls)))
+            self.load_pass = mk(dim, dtype, *make_particle_loads(ctx, compose(*walls)), keep=measured)
 
         # the passes after each step, in this order
         self.after_step_passes = []
@@ -272,8 +278,10 @@ class WCSPH:
         for p, _ in self.wall_passes:
             reads |= set(p.reads) | {f for f, _ in p.writes if not p.velocity}
         self.wall_view = next(v for v in WALL_VIEWS if reads <= set(v._fields))
-        # the wall view with the load the load pass of boundary particles writes
-        self.wall_load_view = _with_load(self.wall_view)
+        # the wall views of the load passes of boundary particles: the points they visit, and
+        # the load they write
+        self.wall_load_views = (_with(NoSlipWallView, "measured"), _with(self.wall_view, "measured"),
+                                _with(self.wall_view, "load", "measured"))
 
     # ------------------------------------------------------------------ set-up
     def fluid_fields(self):
@@ -427,14 +435,13 @@ class WCSPH:
             run(f, f, w, P, G, S, R)
 
     def _wall_passes(self, walls, f, w, P, G, halo=None, loads=False):
-        """The declared wall passes (those made before the loads, with ``loads``), each
-        refreshing what it wrote on a decomposed run's walls; returns the wall view ``w`` with
-        the velocity a no-slip pass wrote."""
-        plain = self.view(walls, self.wall_view) if loads else w
-        for p, run in self.wall_passes:
-            if loads and not p.loads:
-                continue
-            run(self.view(walls, NoSlipWallView) if p.velocity else plain, f, f, P, G)
+        """The declared wall passes (with ``loads``, those the loads read, over the measured
+        points only), each refreshing what it wrote on a decomposed run's walls; returns the
+        wall view ``w`` with the velocity a no-slip pass wrote."""
+        noslip, plain = (self.wall_load_views[:2] if loads else (NoSlipWallView, None))
+        plain = self.view(walls, plain) if loads else w
+        for p, run in self.load_wall_passes if loads else self.wall_passes:
+            run(self.view(walls, noslip) if p.velocity else plain, f, f, P, G)
             if halo is not None:
                 halo.walls(walls, tuple(name for name, _ in p.writes))
             if p.velocity:
@@ -442,8 +449,8 @@ class WCSPH:
         return w
 
     def wall_loads(self, fluid, walls, P, G):
-        """The fluid's load on each wall point (``physics.loads``), written to the walls'
-        ``load`` (dim, n). Boundary elements: p_b n_b S_b plus the viscous wall term's reaction;
+        """The fluid's load on each measured wall point (``physics.loads``; the walls'
+        ``measured``, the others left as they were), written to the walls' ``load`` (dim, n). Boundary elements: p_b n_b S_b plus the viscous wall term's reaction;
         boundary particles: the reaction of the wall terms (their no-slip velocity and
         pressure from the current fluid first). p must be current (``refresh``); the
         consistent scheme's Shepard factor is the last evaluation's."""
@@ -454,7 +461,7 @@ class WCSPH:
             if self.boundary == "elements":
                 self.load_pass(self.view(walls, LoadView), f, f, P, G)
             else:
-                w = self._wall_passes(walls, f, self.view(walls, self.wall_load_view), P, G, loads=True)
+                w = self._wall_passes(walls, f, self.view(walls, self.wall_load_views[2]), P, G, loads=True)
                 self.load_pass(w, f, f, P, G)
         return walls["load"]
 

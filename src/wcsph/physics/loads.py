@@ -35,6 +35,13 @@ from .renormalization import make_hydrostatic_sample
 DRY = 0.1
 
 
+@register_jitable
+def measured(i, I, P):
+    """Whether wall point i belongs to a body whose load is asked for (the walls' ``measured``
+    field): the ``keep`` of the load passes, which leave the other points' loads as they were."""
+    return I.measured[i] != 0
+
+
 def make_element_loads(ctx, shear, shared=False):
     """(init, pair, store) of the load pass: I the elements (``load`` written), J the fluid;
     ``shear``: the viscous slot's wall term (a pair term over fluid i, element j, writing the

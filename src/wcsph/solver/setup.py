@@ -102,6 +102,9 @@ def build(case, backend, comm):
     walls.add("v", "vector", dtype, be)
     walls.add("a", "vector", dtype, be)  # the wall's acceleration (the wall pressure reads it)
     walls["body"] = be.to_device(body)  # the body each wall point belongs to
+    # the points whose loads are asked for: those of the named and the floating bodies
+    asked = [b for b, name in enumerate(bodies.names) if name or b in bodies.floating]
+    walls["measured"] = be.to_device(np.isin(body, asked).astype(np.int64))
     if bodies.moving:  # the placement at t = 0 each moving wall point is carried from
         walls["x0"] = be.to_device(wall0["x"].astype(dtype))
         if "n" in wall0:
