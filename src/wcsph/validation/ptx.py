@@ -68,11 +68,11 @@ def record(case, steps=2):
         return call
 
     def make_pass(self, dim, dtype, init, pair1, finish, pair2=None, cache=True, branchless=False, periodic=None,
-                  then=None, parts=None):
+                  then=None, parts=None, keep=None):
         launch = originals["make_pass"](self, dim, dtype, init, pair1, finish, pair2, cache, branchless, periodic,
-                                        then, parts)
+                                        then, parts, keep)
         return recorder("pass", lambda: CudaBackend().make_pass(dim, dtype, init, pair1, finish, pair2,
-                                                                periodic=periodic, then=then), launch)
+                                                                periodic=periodic, then=then, keep=keep), launch)
 
     def make_map(self, fn, then=None):
         return recorder("map", lambda: CudaBackend().make_map(fn, then), originals["make_map"](self, fn, then))
