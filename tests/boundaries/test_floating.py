@@ -129,7 +129,7 @@ def test_boundary_particle_loads_carry_the_weight_of_the_water():
     assert abs(np.mean([b["tank_fx"] for b in loads])) < 1e-3 * weight
 
 
-@pytest.mark.parametrize("model", ["classic", "bi"])
+@pytest.mark.parametrize("model", ["classic", pytest.param("bi", marks=pytest.mark.validation)])
 def test_the_load_passes_visit_only_the_measured_bodies(model):
     """A named obstacle in a tank that is not named: its load is computed over its own wall
     points only (the walls' ``measured``), the tank's points are not visited (their load is
