@@ -4,7 +4,10 @@ of the step), in WCSPH-BI (the case's model) and in the classic model (the model
 Fekken check runs: wall particles, no-slip by Adami's velocity, XSPH).
 
     python benchmarks/floating.py [--n 100000] [--steps 40] [--models bi classic]
+    python benchmarks/floating.py --case floating_box_waves_3d [--dp 0.04]
 
+``--case``: another shipped case with a floating body, at its own dp (or ``--dp``), its first
+floating body released at once; ``--n`` sizes `floating_box_2d` only.
 The body is released at once (``floating.release = 0``), so that it moves from the first
 step; per stage: the median over ``--windows`` windows of the mean over its steps.
 """
@@ -21,20 +24,20 @@ from _measure import host
 AREA = 2.0 * 0.5
 
 
-def case_for(model, n):
-    data = read_toml(resolve("floating_box_2d"))
-    data["dp"] = (AREA / n) ** 0.5
-    data["obstacle"][0]["floating"]["release"] = 0.0
+def case_for(model, n, name="floating_box_2d", dp=None):
+    data = read_toml(resolve(name))
+    data["dp"] = dp or ((AREA / n) ** 0.5 if name == "floating_box_2d" else data["dp"])
+    next(o for o in data["obstacle"] if "floating" in o)["floating"]["release"] = 0.0
     data["output"]["progress"] = False
     if model == "classic":
         data["model"] = {"name": "classic", "kernel": "wendland", "smoothing_ratio": 2.0, "xsph_epsilon": 0.01,
-                         "ViscousTerm": "ArtificialViscosity", "alpha": data["model"]["alpha"],
+                         "ViscousTerm": "ArtificialViscosity", "alpha": data["model"].get("alpha", 0.02),
                          "wall_velocity": "adami"}
     return validate(data)
 
 
-def measure(model, n, steps, windows):
-    sim = wcsph.Simulation(case_for(model, n))
+def measure(model, n, steps, windows, name="floating_box_2d", dp=None):
+    sim = wcsph.Simulation(case_for(model, n, name, dp))
     for _ in range(5):  # compile or load, then the first steps' start-up
         sim.step(sim.time_step())
     names = [type(s).__name__ if not hasattr(s, "__self__") else s.__self__.__class__.__name__ + "." + s.__name__
@@ -59,13 +62,15 @@ def main():
     ap.add_argument("--steps", type=int, default=40)
     ap.add_argument("--windows", type=int, default=3)
     ap.add_argument("--models", nargs="+", default=["bi", "classic"])
+    ap.add_argument("--case", default="floating_box_2d")
+    ap.add_argument("--dp", type=float, default=None)
     a = ap.parse_args()
     print(host())
     for model in a.models:
-        n, names, ms = measure(model, a.n, a.steps, a.windows)
+        n, names, ms = measure(model, a.n, a.steps, a.windows, a.case, a.dp)
         total = sum(ms)
         body = sum(m for name, m in zip(names, ms) if name in ("MoveBodies", "MoveWalls"))
-        print(f"{model}: {n} fluid particles, step {total:.2f} ms; the body's stages (MoveBodies, MoveWalls) "
+        print(f"{a.case}, {model}: {n} fluid particles, step {total:.2f} ms; the body's stages (MoveBodies, MoveWalls) "
               f"{body:.3f} ms = {100 * body / total:.1f} % of the step")
         print("  " + ", ".join(f"{name} {m:.3f}" for name, m in zip(names, ms)))
 
