@@ -438,9 +438,9 @@ class WCSPH:
         """The declared wall passes (with ``loads``, those the loads read, over the measured
         points only), each refreshing what it wrote on a decomposed run's walls; returns the
         wall view ``w`` with the velocity a no-slip pass wrote."""
-        noslip, plain = (self.wall_load_views[:2] if loads else (NoSlipWallView, None))
-        plain = self.view(walls, plain) if loads else w
-        for p, run in self.load_wall_passes if loads else self.wall_passes:
+        noslip = self.wall_load_views[0] if loads else NoSlipWallView
+        plain = self.view(walls, self.wall_load_views[1]) if loads else w
+        for p, run in (self.load_wall_passes if loads else self.wall_passes):
             run(self.view(walls, noslip) if p.velocity else plain, f, f, P, G)
             if halo is not None:
                 halo.walls(walls, tuple(name for name, _ in p.writes))
@@ -450,9 +450,10 @@ class WCSPH:
 
     def wall_loads(self, fluid, walls, P, G):
         """The fluid's load on each measured wall point (``physics.loads``; the walls'
-        ``measured``, the others left as they were), written to the walls' ``load`` (dim, n). Boundary elements: p_b n_b S_b plus the viscous wall term's reaction;
-        boundary particles: the reaction of the wall terms (their no-slip velocity and
-        pressure from the current fluid first). p must be current (``refresh``); the
+        ``measured``, the others left as they were), written to the walls' ``load`` (dim, n).
+        Boundary elements: p_b n_b S_b plus the viscous wall term's reaction; boundary
+        particles: the reaction of the wall terms (their no-slip velocity and pressure from
+        the current fluid first, on the measured points). p must be current (``refresh``); the
         consistent scheme's Shepard factor is the last evaluation's."""
         if "load" not in walls.arrays:
             walls.add("load", "vector", self.dtype, self.backend, scratch=True)
