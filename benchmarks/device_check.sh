@@ -10,7 +10,10 @@
 #      issue names (2D 100 k and 1.6 M, SPHERIC 2 at dp 0.01, 3D 5 M), as JSON and as the
 #      README's table;
 #   3. benchmarks/neighbour_list.py --backend cuda: the 3D interaction pass over a neighbour
-#      list with a skin against the cell walk (README, Speed).
+#      list with a skin against the cell walk (README, Speed);
+#   4. benchmarks/floating.py --backend cuda: each stage of a floating body's step timed on the
+#      device (issue 22's goal: the body's stages under 10 % of the step), `floating_box_2d` at
+#      98 k fluid particles and `floating_box_waves_3d`, both models.
 #
 # The device's image has numba, numba-cuda, numpy, matplotlib, scikit-image, rich, pytest and
 # hypothesis (see the device tool's KINDS.md); what it lacks travels as wheels in .whl/ (git
@@ -24,7 +27,8 @@
 #   bash benchmarks/device_check.sh tests      (part 1 alone: 4 minutes at most, timeout_s 300)
 #   bash benchmarks/device_check.sh speed      (part 2: 6 minutes at most, timeout_s 420)
 #   bash benchmarks/device_check.sh list       (part 3: 4.5 minutes at most, timeout_s 330)
-# one call each (all three, the default, can take 14.5 minutes: more than one call may run)
+#   bash benchmarks/device_check.sh floating   (part 4: 8 minutes at most, timeout_s 540)
+# one call each (all four, the default, can take 22.5 minutes: more than one call may run)
 # Each part is bounded by its own timeout, and its output goes to $OUT as it runs.
 set -u
 PART=${1:-all}
@@ -55,4 +59,10 @@ for s in 0.05 0.1; do
     timeout 90 python3 benchmarks/neighbour_list.py spheric2_3d --n 652000 --backend cuda --skin $s 2>&1 | tee -a "$OUT/neighbour_list.txt"
 done
 timeout 90 python3 benchmarks/neighbour_list.py dam_break_3d_bi --n 1000000 --backend cuda --skin 0.05 2>&1 | tee -a "$OUT/neighbour_list.txt"
+fi
+
+# 4. the floating body's stages on the device, each timed whole (synchronised after each)
+if [ "$PART" = all ] || [ "$PART" = floating ]; then
+timeout 240 python3 benchmarks/floating.py --backend cuda 2>&1 | tee -a "$OUT/floating.txt"
+timeout 240 python3 benchmarks/floating.py --backend cuda --case floating_box_waves_3d --steps 20 2>&1 | tee -a "$OUT/floating.txt"
 fi
