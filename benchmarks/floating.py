@@ -30,7 +30,11 @@ def case_for(model, n, name="floating_box_2d", dp=None, backend="cpu"):
     data = read_toml(resolve(name))
     data["backend"] = backend
     data["dp"] = dp or ((AREA / n) ** 0.5 if name == "floating_box_2d" else data["dp"])
-    next(o for o in data["obstacle"] if "floating" in o)["floating"]["release"] = 0.0
+    sources = [t for key in ("obstacle", "polygon", "walls") for t in data.get(key, [])]
+    body = next((t for t in sources if "floating" in t), None)
+    if body is None:
+        raise SystemExit(f"{name}: no floating body")
+    body["floating"]["release"] = 0.0
     data["output"]["progress"] = False
     if model == "classic":
         data["model"] = {"name": "classic", "kernel": "wendland", "smoothing_ratio": 2.0, "xsph_epsilon": 0.01,
