@@ -8,7 +8,7 @@ from numba import literal_unroll, njit, prange
 from numba.extending import overload, register_jitable
 
 from .numba_cache import saved_first
-from .walk import body_term, every, make_periodic_walk, make_run_visitor, particle_check
+from .walk import body_term, every, make_particle_check, make_periodic_walk, make_run_visitor
 
 
 #: below this many particles the sort, the per-particle maps and the checks run on one
@@ -126,6 +126,10 @@ def _drop_cells(cell, drop, ncells):
             cell[i] = ncells
 
 
+#: the check of one particle, inlined into the CPU's loop (``walk.make_particle_check``)
+_particle_check = make_particle_check(inline="always")
+
+
 @njit(parallel=True, cache=True)
 def _check(x, v, a, owned):
     """Largest |v|^2 and |a|^2, and the count of particles with a non-finite x, v or a,
@@ -135,15 +139,12 @@ def _check(x, v, a, owned):
     amax2 = 0.0
     bad = 0
     every = owned.size == 0
-    for i in prange(x.shape[1]):
-        if not every and owned[i] == 0:
-            continue
-        s, q, ok = particle_check(x, v, a, i)
-        if ok:
-            vmax2 = max(vmax2, s)
-            amax2 = max(amax2, q)
-        else:
-            bad += 1
+    for i in prange(x.shape[1]):  # without a branch: the loop vectorises
+        mine = every or owned[i] != 0
+        s, q, ok = _particle_check(x, v, a, i)
+        vmax2 = max(vmax2, s if ok and mine else 0.0)
+        amax2 = max(amax2, q if ok and mine else 0.0)
+        bad += 0 if ok or not mine else 1
     return vmax2, amax2, bad
 
 

@@ -2,21 +2,36 @@
 particles j0..j1 of set J into particle i's accumulator, and the check of one particle."""
 import math
 
+import numpy as np
+
 from numba.extending import register_jitable
 
 
-@register_jitable
-def particle_check(x, v, a, i):
-    """(|v|^2, |a|^2, ok) of particle i of the (dim, N) arrays x, v, a: ok when all three are
-    finite (the check after a step; compiled without fastmath, which would drop the test)."""
-    s = 0.0
-    q = 0.0
-    ok = True
-    for d in range(x.shape[0]):
-        s += v[d, i] * v[d, i]
-        q += a[d, i] * a[d, i]
-        ok = ok and math.isfinite(x[d, i])
-    return s, q, ok and math.isfinite(s) and math.isfinite(q)
+def make_particle_check(inline="never"):
+    """check(x, v, a, i) = (|v|^2, |a|^2, ok) of particle i of the (dim, N) arrays x, v, a: ok
+    when all three are finite (the check after a step; compiled without fastmath, which would
+    drop the test). Each square is made in the arrays' precision and summed in float64 in the
+    order of the components; x's finiteness is read from the sum of its components (a
+    non-finite component makes it non-finite). ``inline="always"``: Numba's own inlining,
+    for the CPU's loop, where a call left to LLVM kept the loop from vectorising (0.21 against
+    1.7 ms at 98 k particles in 2D, measured alone); the CUDA kernels take the plain form
+    (numba-cuda's pipeline does not take the CPU's inliner)."""
+    @register_jitable(inline=inline)
+    def particle_check(x, v, a, i):
+        s = np.float64(v[0, i] * v[0, i]) + np.float64(v[1, i] * v[1, i])
+        q = np.float64(a[0, i] * a[0, i]) + np.float64(a[1, i] * a[1, i])
+        r = np.float64(x[0, i]) + np.float64(x[1, i])
+        if x.shape[0] == 3:
+            s += np.float64(v[2, i] * v[2, i])
+            q += np.float64(a[2, i] * a[2, i])
+            r += np.float64(x[2, i])
+        return s, q, math.isfinite(s) and math.isfinite(q) and math.isfinite(r)
+
+    return particle_check
+
+
+#: the check of one particle, as the CUDA check calls it
+particle_check = make_particle_check()
 
 
 @register_jitable
