@@ -109,6 +109,43 @@ def test_a_stale_cache_index_is_recompiled_not_a_traceback(tmp_path):
     assert cache_file._load_index() == {}
 
 
+def test_a_cached_function_of_the_package_is_stamped_with_all_its_sources(tmp_path):
+    """A cached loop of this package is kept only while every source of the package is
+    unchanged, not only its own file: the stamp of a package file holds ``package_stamp``,
+    which changes when any ``.py`` file under the root is touched or resized (here on a copy
+    of the layout, not on the package itself, which other tests are compiling from), and not
+    when a ``__pycache__`` file is; a file outside the package keeps Numba's own stamp."""
+    import os
+
+    from numba.core.caching import _SourceFileBackedLocatorMixin
+
+    import wcsph  # noqa: F401  (installs the stamps)
+    from wcsph.backends import numba_cache
+    from wcsph.backends.cpu import _check
+
+    class Locator(_SourceFileBackedLocatorMixin):
+        def __init__(self, py_file):
+            self._py_file = py_file
+
+    own = Locator(_check.py_func.__code__.co_filename).get_source_stamp()
+    assert own[1] == numba_cache.package_stamp()
+    outside = tmp_path / "elsewhere.py"
+    outside.write_text("x = 1\n")
+    assert not isinstance(Locator(str(outside)).get_source_stamp(), tuple)
+
+    root = tmp_path / "pkg"
+    (root / "backends" / "__pycache__").mkdir(parents=True)
+    helper = root / "backends" / "walk.py"
+    helper.write_text("def f():\n    return 1\n")
+    (root / "backends" / "cpu.py").write_text("from .walk import f\n")
+    first = numba_cache.package_stamp.__wrapped__(str(root))
+    (root / "backends" / "__pycache__" / "cpu.nbi").write_bytes(b"index")
+    assert numba_cache.package_stamp.__wrapped__(str(root)) == first
+    st = helper.stat()
+    os.utime(helper, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000_000))  # the helper edited, cpu.py not
+    assert numba_cache.package_stamp.__wrapped__(str(root)) != first
+
+
 def test_two_processes_saving_loops_of_one_source_keep_each_its_own(tmp_path):
     """Two saves into one index at once (two MPI ranks or test workers compiling two closures
     of one loop): each key names a data file of its own and loads its own data. Without the

@@ -35,13 +35,23 @@ is made from what it is: its code and the contents of its cells (``_content_id``
 in every process for the same closure and different for different ones; a function without
 a closure, or whose cells cannot be pickled, keeps Numba's counter.
 
+**Sources.** Numba keeps a cached function while its own file is unchanged (its timestamp
+and size): a helper it calls from another file (``walk.make_particle_check`` under
+``cpu._check``) may change and the cached caller still runs the old code, in a working tree
+where one file was edited (seen: a benchmark read the old helper's figures until the cache
+was removed). Here a function of this package is stamped with the package's sources as
+well (``package_stamp``: every ``.py`` file's path, timestamp and size), so an edit anywhere
+in it compiles its loops again; a clean checkout or an install is cold either way.
+
 **Compiled or loaded.** A cached ``parallel=True, fastmath=True`` loop ran other machine code
 in the process that compiled it than in every process that loaded it (``saved_first``): a
 restart, or a second run in one process, was then not bit for bit the run before it.
 """
+import functools
 import hashlib
 import itertools
 import marshal
+import os
 from contextlib import contextmanager
 from functools import cached_property
 
@@ -116,8 +126,48 @@ def _name_closures_by_content():
     FunctionIdentity.derive = derive
 
 
+#: the package whose functions ``package_stamp`` stamps
+PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+@functools.lru_cache(maxsize=None)
+def package_stamp(root=PACKAGE):
+    """A digest of the sources under ``root``: each ``.py`` file's path, timestamp and size (as
+    Numba stamps one file), read once per process."""
+    h = hashlib.sha1()
+    for folder, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__")  # walked in this order
+        for f in sorted(f for f in files if f.endswith(".py")):
+            path = os.path.join(folder, f)
+            st = os.stat(path)
+            h.update(f"{os.path.relpath(path, root)}:{st.st_mtime_ns}:{st.st_size};".encode())
+    return h.hexdigest()
+
+
+def _stamp_with_package():
+    """Numba's stamp of a source file, with ``package_stamp`` for a file of this package."""
+    try:
+        from numba.core.caching import _SourceFileBackedLocatorMixin as mixin
+    except ImportError:  # a Numba without it: its own stamps
+        return
+    if getattr(mixin.get_source_stamp, "_wcsph_guarded", False):
+        return
+    own = mixin.get_source_stamp
+
+    def get_source_stamp(self):
+        stamp = own(self)
+        path = os.path.abspath(getattr(self, "_py_file", "") or "")
+        if path.startswith(PACKAGE + os.sep):
+            return stamp, package_stamp()
+        return stamp
+
+    get_source_stamp._wcsph_guarded = True
+    mixin.get_source_stamp = get_source_stamp
+
+
 def install():
     _name_closures_by_content()
+    _stamp_with_package()
     try:
         from numba.core.caching import IndexDataCacheFile
     except ImportError:  # a Numba without this class: nothing to guard
