@@ -138,9 +138,9 @@ def _check(x, v, a, owned):
     vmax2 = 0.0
     amax2 = 0.0
     bad = 0
-    every = owned.size == 0
+    all_owned = owned.size == 0
     for i in prange(x.shape[1]):  # without a branch: the loop vectorises
-        mine = every or owned[i] != 0
+        mine = all_owned or owned[i] != 0
         s, q, ok = _particle_check(x, v, a, i)
         vmax2 = max(vmax2, s if ok and mine else 0.0)
         amax2 = max(amax2, q if ok and mine else 0.0)

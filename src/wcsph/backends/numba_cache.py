@@ -156,8 +156,8 @@ def _stamp_with_package():
 
     def get_source_stamp(self):
         stamp = own(self)
-        path = os.path.abspath(getattr(self, "_py_file", "") or "")
-        if path.startswith(PACKAGE + os.sep):
+        path = getattr(self, "_py_file", None)
+        if path and os.path.abspath(path).startswith(PACKAGE + os.sep):
             return stamp, package_stamp()
         return stamp
 

@@ -280,8 +280,9 @@ class WCSPH:
         self.wall_view = next(v for v in WALL_VIEWS if reads <= set(v._fields))
         # the wall views of the load passes of boundary particles: the points they visit, and
         # the load they write
-        self.wall_load_views = (_with(NoSlipWallView, "measured"), _with(self.wall_view, "measured"),
-                                _with(self.wall_view, "load", "measured"))
+        self.noslip_load_view = _with(NoSlipWallView, "measured")
+        self.plain_load_view = _with(self.wall_view, "measured")
+        self.wall_load_view = _with(self.wall_view, "load", "measured")
 
     # ------------------------------------------------------------------ set-up
     def fluid_fields(self):
@@ -438,8 +439,8 @@ class WCSPH:
         """The declared wall passes (with ``loads``, those the loads read, over the measured
         points only), each refreshing what it wrote on a decomposed run's walls; returns the
         wall view ``w`` with the velocity a no-slip pass wrote."""
-        noslip = self.wall_load_views[0] if loads else NoSlipWallView
-        plain = self.view(walls, self.wall_load_views[1]) if loads else w
+        noslip = self.noslip_load_view if loads else NoSlipWallView
+        plain = self.view(walls, self.plain_load_view) if loads else w
         for p, run in (self.load_wall_passes if loads else self.wall_passes):
             run(self.view(walls, noslip) if p.velocity else plain, f, f, P, G)
             if halo is not None:
@@ -462,7 +463,7 @@ class WCSPH:
             if self.boundary == "elements":
                 self.load_pass(self.view(walls, LoadView), f, f, P, G)
             else:
-                w = self._wall_passes(walls, f, self.view(walls, self.wall_load_views[2]), P, G, loads=True)
+                w = self._wall_passes(walls, f, self.view(walls, self.wall_load_view), P, G, loads=True)
                 self.load_pass(w, f, f, P, G)
         return walls["load"]
 
