@@ -258,3 +258,55 @@ def test_closures_compiled_in_two_processes_keep_their_own_code_when_loaded_in_o
     for dims in (["2"], ["3"], ["3", "2"], ["2", "3"]):
         r = subprocess.run([sys.executable, script, *dims], capture_output=True, text=True, env=env, timeout=600)
         assert r.returncode == 0 and "WRONG" not in r.stdout, (dims, r.stdout, r.stderr[-2000:])
+
+
+def test_two_processes_that_want_one_loop_compile_it_once(tmp_path):
+    """Two processes call the same cached loop at the same moment over an empty cache (MPI
+    ranks on a node, test workers): one compiles it, the other waits for it under the key's
+    lock and loads it (``numba_cache._compiling``); both compute the same numbers. Without
+    the lock both compiled it."""
+    script = os.path.join(os.path.dirname(__file__), "compile_once.py")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    go = tmp_path / "go"
+    procs = [subprocess.Popen([sys.executable, script, str(go)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True, env=env) for _ in range(2)]
+    import time
+
+    while len(list(tmp_path.glob("go.ready*"))) < 2 and all(p.poll() is None for p in procs):
+        time.sleep(0.01)
+    go.touch()  # both have imported Numba and wait for it
+    outs = [p.communicate(timeout=600) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [e[-2000:] for _, e in outs]
+    done = [o.split() for o, _ in outs]
+    assert all(d[1] == "ok" for d in done), done
+    assert sorted(int(d[0]) for d in done) == [0, 1], done
+
+
+def test_every_view_a_model_passes_is_found_by_name_in_a_fresh_process():
+    """A loop's cache index names the classes of its arguments (the views, ``Params``); a
+    process that cannot find one of them by name reads the whole index as empty and writes
+    it anew with its own loops only (``numba_cache.install``: the index of an upgrade). The
+    floating bodies' load views were made the first time a model asked for them, so a case
+    without a floating body dropped the floating cases' cached passes, and they dropped its
+    own: each ran compiled every pass again (a third of the cold suite's compiling was such
+    repeats). Every namedtuple class of the package that building a floating case makes is
+    found by name in a process that has only imported the package."""
+    import wcsph
+    from wcsph.case.config import load
+
+    for name, dp in (("floating_box_2d", 0.05), ("cylinder_entry_2d", 0.2)):
+        wcsph.Simulation(load(name, [("dp", dp), ("output.vtk", False), ("output.progress", False)]))
+    made, todo = [], [tuple]
+    while todo:
+        for sub in todo.pop().__subclasses__():
+            todo.append(sub)
+            if sub.__module__.startswith("wcsph.") and hasattr(sub, "_fields"):
+                made.append((sub.__module__, sub.__qualname__))
+    assert any(q == "NoSlipWallViewMeasured" for _, q in made), made
+    check = ("import importlib, json, sys, wcsph\n"
+             "missing = [(m, q) for m, q in json.loads(sys.argv[1])\n"
+             "           if not hasattr(importlib.import_module(m), q)]\n"
+             "print(json.dumps(missing))")
+    r = subprocess.run([sys.executable, "-c", check, json.dumps(made)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert json.loads(r.stdout.strip().splitlines()[-1]) == [], r.stdout

@@ -391,8 +391,8 @@ def case(every):  # the classic model's XSPH: P fields made from each step's siz
                      "fluid": [{"min": [0.0, 0.0], "max": [0.4, 0.4]}],
                      "tank": {"min": [0.0, 0.0], "max": [1.0, 0.8], "open_top": True},
                      "model": {"name": "classic", "xsph_epsilon": 0.5},
-                     "time": {"end": 0.035, "check_interval": every},
-                     "output": {"progress": False, "vtk": False, "interval": 0.01, "probe_interval": 0.005}})
+                     "time": {"end": 0.02, "check_interval": every},
+                     "output": {"progress": False, "vtk": False, "interval": 0.01, "probe_interval": 0.0025}})
 
 res = {}
 for be, every in (("cpu", 1), ("cuda", 1), ("cuda", 4)):
@@ -422,7 +422,7 @@ def test_an_adaptive_step_is_sized_on_the_device():
     """With an adaptive step the device makes each step's size from the last check (and XSPH's
     epsilon/dt with it), so the host reads every ``check_interval`` steps there too: over
     eight steps two copies to the host instead of eight (one per step and a count). The run
-    with probes every 0.005 s reads before each could fall due: its probes.csv (time, step,
+    with probes every 0.0025 s reads before each could fall due: its probes.csv (time, step,
     dt, energies) is that of the run that reads each step, character for character, and so
     are the positions and the end time; the CPU's to round-off."""
     r = subprocess.run([sys.executable, "-c", SIZED], capture_output=True, text=True, env=_env(), timeout=600)
@@ -430,7 +430,7 @@ def test_an_adaptive_step_is_sized_on_the_device():
     res = json.loads(r.stdout.strip().splitlines()[-1])
     assert res["sized"] == [False, True] and res["every"] == [1, 4], res
     assert res["copies"][0] >= 8 and res["copies"][1] == 2, res
-    assert res["rows"] >= 5 and res["same_rows"] and res["same"], res  # a header, a row each 0.005 s
+    assert res["rows"] >= 5 and res["same_rows"] and res["same"], res  # a header, a row each 0.0025 s
     assert res["steps"][0] == res["steps"][1] == res["steps"][2] and res["t"][1] == res["t"][2], res
     assert abs(res["t"][0] - res["t"][2]) < 1e-15 and res["dx"] < 1e-12, res
 

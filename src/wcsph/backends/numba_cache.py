@@ -165,6 +165,31 @@ def _stamp_with_package():
     mixin.get_source_stamp = get_source_stamp
 
 
+@contextmanager
+def _compiling(index_path, key):
+    """Hold, for one cache key, an exclusive lock that a process takes before it compiles
+    that key: a byte of ``index_path``'s ``.compile`` file picked by the key's digest (POSIX
+    record locks, so that the compiles of different loops of one index do not wait for each
+    other). A second process that wants the same loop meanwhile (MPI ranks on a node,
+    pytest-xdist workers) waits here, then finds it in the cache and loads it instead of
+    compiling it again. Nothing is held where no lock can be taken."""
+    f = None
+    where = int(hashlib.sha256(repr(key).encode()).hexdigest()[:8], 16) % (1 << 20)
+    if fcntl is not None:
+        try:
+            f = open(index_path + ".compile", "a+b")
+            fcntl.lockf(f, fcntl.LOCK_EX, 1, where)
+        except OSError:
+            if f is not None:
+                f.close()
+            f = None
+    try:
+        yield
+    finally:
+        if f is not None:
+            f.close()  # releases the lock
+
+
 def install():
     _name_closures_by_content()
     _stamp_with_package()
@@ -244,7 +269,9 @@ def saved_first(run):
 
     Here a signature the cache lacks is first compiled and saved by a twin dispatcher of
     the same function, in a JIT engine of its own, and ``run`` then loads it like any later
-    process: every process runs the cached code, the first included. A cold compile costs
+    process: every process runs the cached code, the first included. The twin compiles
+    under the key's lock (``_compiling``): a process that wants a loop another is compiling
+    waits for it and loads it, instead of compiling it too. A cold compile costs
     the same (the twin compiles, ``run`` only loads: 26.9 s against 28.1 s before for that
     case). Where the cache cannot be written, or Numba's cache internals differ, ``run``
     compiles as before."""
@@ -255,14 +282,16 @@ def saved_first(run):
         try:
             args, _ = sigutils.normalize_signature(sig)
             cache = run._cache
-            missing = (tuple(args) not in run.overloads
-                       and cache._index_key(sig, run.targetctx.codegen()) not in cache._cache_file._load_index())
+            key = cache._index_key(sig, run.targetctx.codegen())
+            missing = tuple(args) not in run.overloads and key not in cache._cache_file._load_index()
         except (AttributeError, TypeError, OSError):
             missing = False
         if missing:
-            twin = _TwinDispatcher(run.py_func, targetoptions=options)
-            twin.enable_caching()
-            twin.compile(sig)
+            with _compiling(cache._cache_file._index_path, key):
+                if key not in cache._cache_file._load_index():  # not saved by another process meanwhile
+                    twin = _TwinDispatcher(run.py_func, targetoptions=options)
+                    twin.enable_caching()
+                    twin.compile(sig)
         return original(sig)
 
     run.compile = compile

@@ -84,16 +84,23 @@ WALL_FIELDS = {"n": "vector", "elementSize": "scalar", "psi": "scalar", "vol": "
 _NDIM = {"scalar": 1, "vector": 2, "matrix": 2, "symmetric": 2}
 
 
+#: the views with extra fields that the model passes (``_with``), made when the module is
+#: imported: a compiled loop's cache index names the classes of its arguments, and a process
+#: that could not find one of them by name read the whole index as empty and wrote it anew,
+#: dropping every other loop's entry (a floating case's load passes took the cache of every
+#: other case's passes with them)
 _EXTENDED_VIEWS = {}
+for _view, _extra in [(v, ("measured",)) for v in (NoSlipWallView,) + WALL_VIEWS] + \
+        [(v, ("load", "measured")) for v in WALL_VIEWS]:
+    _fields = [f for f in _view._fields if f not in ("cell", "start")] + list(_extra) + ["cell", "start"]
+    _cls = namedtuple(_view.__name__ + "".join(e.capitalize() for e in _extra), " ".join(_fields))
+    globals()[_cls.__name__] = _cls  # found by name, as every view class
+    _EXTENDED_VIEWS[_view, _extra] = _cls
 
 
 def _with(view, *extra):
-    """``view`` with the fields ``extra`` before the cell list (one class per view and extra)."""
-    if (view, extra) not in _EXTENDED_VIEWS:
-        fields = [f for f in view._fields if f not in ("cell", "start")] + list(extra) + ["cell", "start"]
-        cls = namedtuple(view.__name__ + "".join(e.capitalize() for e in extra), " ".join(fields))
-        globals()[cls.__name__] = cls  # found by name, as every view class (compiled-loop caches)
-        _EXTENDED_VIEWS[view, extra] = cls
+    """``view`` with the fields ``extra`` before the cell list (one class per view and extra,
+    made at import: ``_EXTENDED_VIEWS``)."""
     return _EXTENDED_VIEWS[view, extra]
 
 
