@@ -7,7 +7,7 @@ import numba
 from numba import literal_unroll, njit, prange
 from numba.extending import overload, register_jitable
 
-from .numba_cache import saved_first
+from .numba_cache import compiled_once, saved_first
 from .walk import body_term, every, make_particle_check, make_periodic_walk, make_run_visitor
 
 
@@ -42,6 +42,7 @@ def _cell_ids(x, origin, inv_cell, nx, ny, nz, ncells, k, cell):
         cell[i] = _cell_id(x, i, origin, inv_cell, nx, ny, nz, ncells, k)
 
 
+@compiled_once
 @njit(cache=True)
 def _counting_sort(cell, ncells, start, perm):
     """Stable counting sort by cell; ``start`` gets ncells + 2 entries (the extra cell id
@@ -61,6 +62,7 @@ def _counting_sort(cell, ncells, start, perm):
         fill[c] += one
 
 
+@compiled_once
 @njit(cache=True)
 def _body_sums(x, load, body, rows, refs, out):
     """out[r] = (force, torque about refs[r]) summed over the wall points i with
@@ -94,6 +96,7 @@ def _copy_impl(src, perm, dst):
     return copy2
 
 
+@compiled_once
 @njit(fastmath=True, cache=True)
 def _sort_small(x, origin, inv_cell, nx, ny, nz, ncells, k, cell, start, perm, pairs):
     """The whole sort in one call on one thread: cell ids, counting sort and the gather of
@@ -106,12 +109,14 @@ def _sort_small(x, origin, inv_cell, nx, ny, nz, ncells, k, cell, start, perm, p
         _copy(pair[0], perm, pair[1])
 
 
+@compiled_once
 @njit(parallel=True, cache=True)
 def _gather1(src, perm, dst):
     for k in prange(dst.shape[0]):
         dst[k] = src[perm[k]]
 
 
+@compiled_once
 @njit(parallel=True, cache=True)
 def _gather2(src, perm, dst):
     for k in prange(dst.shape[1]):
@@ -119,6 +124,7 @@ def _gather2(src, perm, dst):
             dst[d, k] = src[d, perm[k]]
 
 
+@compiled_once
 @njit(parallel=True, cache=True)
 def _drop_cells(cell, drop, ncells):
     for i in prange(cell.size):
@@ -130,6 +136,7 @@ def _drop_cells(cell, drop, ncells):
 _particle_check = make_particle_check(inline="always")
 
 
+@compiled_once
 @njit(parallel=True, cache=True)
 def _check(x, v, a, owned):
     """Largest |v|^2 and |a|^2, and the count of particles with a non-finite x, v or a,
@@ -218,6 +225,7 @@ def _chunked(run):
     return chunked
 
 
+@compiled_once
 @njit(parallel=True, cache=True)
 def _wrap(x, lo, length, inv_cell, origin, k, real, axes):
     """Put particles that left a periodic box through one side back at the other; a position

@@ -275,8 +275,29 @@ def saved_first(run):
     the same (the twin compiles, ``run`` only loads: 26.9 s against 28.1 s before for that
     case). Where the cache cannot be written, or Numba's cache internals differ, ``run``
     compiles as before."""
-    original = run.compile
     options = dict(run.targetoptions)
+
+    def save(sig):
+        twin = _TwinDispatcher(run.py_func, targetoptions=options)
+        twin.enable_caching()
+        twin.compile(sig)
+
+    return _compiled_once(run, save)
+
+
+def compiled_once(run):
+    """``run``, a cached function (not a parallel fastmath loop: ``saved_first``), compiled
+    under its key's lock (``_compiling``): a process that wants it while another compiles it
+    waits and loads it from the cache."""
+    return _compiled_once(run, run.compile)
+
+
+def _compiled_once(run, save):
+    """``run`` whose compile of a signature the cache lacks first calls ``save(sig)`` under
+    the key's lock, unless another process saved it meanwhile, then compiles or loads as
+    Numba does. Where the cache cannot be written, or Numba's cache internals differ, ``run``
+    compiles as before."""
+    original = run.compile
 
     def compile(sig):
         try:
@@ -289,9 +310,7 @@ def saved_first(run):
         if missing:
             with _compiling(cache._cache_file._index_path, key):
                 if key not in cache._cache_file._load_index():  # not saved by another process meanwhile
-                    twin = _TwinDispatcher(run.py_func, targetoptions=options)
-                    twin.enable_caching()
-                    twin.compile(sig)
+                    save(sig)
         return original(sig)
 
     run.compile = compile
