@@ -66,14 +66,14 @@ except ImportError:  # not POSIX: Numba's unlocked cache
 
 
 @contextmanager
-def _locked(index_path, exclusive):
-    """Hold a lock on ``index_path``'s lock file (exclusive or shared); nothing when none
-    can be taken."""
+def _holding(path, lock):
+    """Hold ``lock(f)`` on the file ``path`` (opened for appending) until the block ends;
+    nothing when no lock can be taken (no ``fcntl``, a read-only directory)."""
     f = None
     if fcntl is not None:
         try:
-            f = open(index_path + ".lock", "a+b")
-            fcntl.flock(f, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+            f = open(path, "a+b")
+            lock(f)
         except OSError:
             if f is not None:
                 f.close()
@@ -83,6 +83,11 @@ def _locked(index_path, exclusive):
     finally:
         if f is not None:
             f.close()  # releases the lock
+
+
+def _locked(index_path, exclusive):
+    """Hold a lock on ``index_path``'s lock file (exclusive or shared)."""
+    return _holding(index_path + ".lock", lambda f: fcntl.flock(f, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH))
 
 
 def _content_id(func):
@@ -165,29 +170,15 @@ def _stamp_with_package():
     mixin.get_source_stamp = get_source_stamp
 
 
-@contextmanager
 def _compiling(index_path, key):
     """Hold, for one cache key, an exclusive lock that a process takes before it compiles
     that key: a byte of ``index_path``'s ``.compile`` file picked by the key's digest (POSIX
     record locks, so that the compiles of different loops of one index do not wait for each
     other). A second process that wants the same loop meanwhile (MPI ranks on a node,
     pytest-xdist workers) waits here, then finds it in the cache and loads it instead of
-    compiling it again. Nothing is held where no lock can be taken."""
-    f = None
+    compiling it again."""
     where = int(hashlib.sha256(repr(key).encode()).hexdigest()[:8], 16) % (1 << 20)
-    if fcntl is not None:
-        try:
-            f = open(index_path + ".compile", "a+b")
-            fcntl.lockf(f, fcntl.LOCK_EX, 1, where)
-        except OSError:
-            if f is not None:
-                f.close()
-            f = None
-    try:
-        yield
-    finally:
-        if f is not None:
-            f.close()  # releases the lock
+    return _holding(index_path + ".compile", lambda f: fcntl.lockf(f, fcntl.LOCK_EX, 1, where))
 
 
 def install():
