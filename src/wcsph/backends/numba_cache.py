@@ -294,8 +294,10 @@ def _compiled_once(run, save):
         try:
             args, _ = sigutils.normalize_signature(sig)
             cache = run._cache
-            key = cache._index_key(sig, run.targetctx.codegen())
-            missing = tuple(args) not in run.overloads and key not in cache._cache_file._load_index()
+            missing = tuple(args) not in run.overloads
+            if missing:  # the key pickles the closure's cells: only for a signature not yet here
+                key = cache._index_key(sig, run.targetctx.codegen())
+                missing = key not in cache._cache_file._load_index()
         except (AttributeError, TypeError, OSError):
             missing = False
         if missing:
