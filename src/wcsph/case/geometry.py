@@ -3,9 +3,11 @@
 Fluid particles sit on a lattice of spacing dp, dp/2 inside the block faces. Walls come in two
 kinds, after the model:
 
-* wall particles (classic model): the fluid lattice continued beyond the wall surface (the
-  tank's inner faces, an obstacle's faces), ``layers`` deep, so fluid and wall particles start
-  dp apart everywhere;
+* wall particles (classic model): ``layers`` deep behind the wall surface (the tank's inner
+  faces, an obstacle's faces), on a lattice fitted to each box (``fitted_lattice``: a whole
+  number of spacings of about dp across it), so that every face is half a spacing beyond its
+  outer layer; each point carries its cell's volume over dp^dim (``cell``), which scales its
+  pseudo-mass;
 * boundary elements (WCSPH-BI): the wall surface cut into segments (2D) or rectangular faces
   (3D) of size about ``boundaryElementSize`` (a length in 2D, an area in 3D; default dp or dp^2), each with its centre ``x``, size
   ``elementSize`` (length or area) and unit normal ``n``.
@@ -86,23 +88,45 @@ def _inside(x, lo, hi, tol=0.0):
     return np.all((x > lo) & (x < hi), axis=0)
 
 
+def fitted_lattice(lo, hi, dp, below=None, above=None):
+    """Points of a lattice fitted to the box [lo, hi]: along each axis round(L/dp) spacings
+    (at least one) of s = L / n, points s/2 inside the faces, continued ``below[a]`` spacings
+    below lo and ``above[a]`` above hi. Returns (points (dim, N), the cell's volume prod s).
+    A wall sampled on it has its faces where the box has them, whatever dp; the plain
+    ``lattice`` leaves a box that is not a whole number of dp thick up to dp short on its
+    upper faces."""
+    dim = len(lo)
+    below = below if below is not None else [0] * dim
+    above = above if above is not None else [0] * dim
+    axes, cell = [], 1.0
+    for a in range(dim):
+        n = max(1, int(round((hi[a] - lo[a]) / dp)))
+        s = (hi[a] - lo[a]) / n
+        axes.append(lo[a] + s * (0.5 + np.arange(-below[a], n + above[a])))
+        cell *= s
+    mesh = np.meshgrid(*axes, indexing="ij")
+    return np.stack([m.ravel() for m in mesh]), cell
+
+
 def tank_particles(tank, dp, layers, periodic=(False, False, False)):
-    """The tank's walls, ``layers`` deep; none across a periodic axis (the lattice there
-    spans exactly the tank, so it joins up across the seam)."""
+    """The tank's walls, ``layers`` deep on a lattice fitted to the tank (``fitted_lattice``),
+    and their cell volume; none across a periodic axis (the lattice there spans exactly the
+    tank, so it joins up across the seam)."""
     lo = np.asarray(tank["min"], dtype=float)
     hi = np.asarray(tank["max"], dtype=float)
-    t = np.array([0.0 if periodic[a] else layers * dp for a in range(lo.size)])
-    outer_hi = hi + t
+    dim = lo.size
+    t = [0 if periodic[a] else layers for a in range(dim)]
+    top = list(t)
     if tank["open_top"]:
-        outer_hi[-1] = hi[-1]
-    pts = lattice(lo - t, outer_hi, dp)
+        top[-1] = 0
+    pts, cell = fitted_lattice(lo, hi, dp, t, top)
     interior_lo, interior_hi = lo.copy(), hi.copy()
     if tank["open_top"]:
         interior_hi[-1] = hi[-1] + dp  # no lid
-    for a in range(lo.size):
+    for a in range(dim):
         if periodic[a]:
             interior_lo[a], interior_hi[a] = -np.inf, np.inf
-    return pts[:, ~_inside(pts, interior_lo, interior_hi)]
+    return pts[:, ~_inside(pts, interior_lo, interior_hi)], cell
 
 
 def _in_polygon(x, pts, margin):
@@ -120,11 +144,12 @@ def _in_polygon(x, pts, margin):
 
 
 def obstacle_particles(box, dp, layers):
-    """A solid box, sampled ``layers`` deep from its faces (its core is never reached)."""
+    """A solid box, sampled ``layers`` deep from its faces on a lattice fitted to it
+    (``fitted_lattice``; its core is never reached), and the lattice's cell volume."""
     lo = np.asarray(box["min"], dtype=float)
     hi = np.asarray(box["max"], dtype=float)
-    pts = lattice(lo, hi, dp)
-    return pts[:, ~_inside(pts, lo + layers * dp, hi - layers * dp)]
+    pts, cell = fitted_lattice(lo, hi, dp)
+    return pts[:, ~_inside(pts, lo + layers * dp, hi - layers * dp)], cell
 
 
 def polygon_particles(points, dp, layers, phase):
@@ -449,8 +474,8 @@ def compressed_lattice(lo, hi, dp, column):
 
 def build(case, column=None):
     """The fluid (a dict: ``x``, ``v``, ``top``, the top of each particle's block, and ``p``,
-    its initial pressure where the block gives one, else NaN), the walls (a dict: ``x``, and for boundary elements
-    ``n`` and ``elementSize``), and the domain box of ``case``. ``column``: depth -> rho / rho0
+    its initial pressure where the block gives one, else NaN), the walls (a dict: ``x``, ``body``, and for wall particles
+    ``cell``, for boundary elements ``n`` and ``elementSize``), and the domain box of ``case``. ``column``: depth -> rho / rho0
     of a column at rest, for a summation-density model (``compressed_lattice``); the boxes of
     fluid without a ``pressure`` are sampled compressed by it."""
     src, dp, dim = case["_source"], case["dp"], case["dim"]
@@ -464,20 +489,24 @@ def build(case, column=None):
                                 "close it, or use boundary elements (model.BCType = \"BIConsistent_numeric\", or "
                                 "model.name = \"bi\")")
         layers = wall_layers(case)
-        parts = []
+        parts, cells = [], []  # each source's points and the volume of its lattice's cell
         if case["tank"] is not None:
-            parts.append(tank_particles(case["tank"], dp, layers, periodic_axes(case)))
+            pts, cell = tank_particles(case["tank"], dp, layers, periodic_axes(case))
+            parts.append(pts), cells.append(cell)
         for box in case["obstacle"]:
-            parts.append(obstacle_particles(box, dp, layers))
+            pts, cell = obstacle_particles(box, dp, layers)
+            parts.append(pts), cells.append(cell)
         phase = np.asarray(case["fluid"][0]["min"], dtype=float) if case["fluid"] and case["fluid"][0]["min"] is not None \
             else np.zeros(dim)
         for poly in case["polygon"]:
-            parts.append(polygon_particles(poly["points"], dp, layers, phase))
+            parts.append(polygon_particles(poly["points"], dp, layers, phase)), cells.append(dp ** dim)
         for k, w in enumerate(case["walls"]):
-            parts.append(_file_particles(case, k, w, dp, layers))
+            parts.append(_file_particles(case, k, w, dp, layers)), cells.append(dp ** dim)
         wall_set = {"x": np.concatenate(parts, axis=1) if parts else np.zeros((dim, 0)),
                     "body": np.concatenate([np.full(p.shape[1], b, dtype=np.int64) for b, p in enumerate(parts)])
-                    if parts else np.zeros(0, dtype=np.int64)}
+                    if parts else np.zeros(0, dtype=np.int64),
+                    "cell": np.concatenate([np.full(p.shape[1], c / dp ** dim) for p, c in zip(parts, cells)])
+                    if parts else np.zeros(0)}
     walls = wall_set["x"]
 
     xs, vs, tops, ps = [], [], [], []

@@ -349,14 +349,14 @@ class WCSPH:
     def update(self, P, dt, gravity, vmax=0.0):
         return slots.update_params(P, self.dtype, self.q, self._stepped, dt, gravity, vmax)
 
-    def initialize(self, fluid, walls, P, G, lattice_mass):
+    def initialize(self, fluid, walls, P, G):
         """Boundary particles' pseudo-masses Psi (then V = Psi/rho0, rho = rho0).
         ``akinci``: rho0 / sum_l W_kl over wall neighbours, Akinci et al. (2012) eq. 5, made for
         a single layer of wall particles; on the fluid-facing layer of a thick wall it counts
         only half a neighbourhood and doubles Psi. ``lattice``: the same formula with the sum
-        over the full lattice the wall is sampled on, Psi = rho0 V0 = the fluid particle mass,
-        which makes a wall of full kernel depth act like fluid at rest (the dummy-particle
-        limit, Adami et al. 2012)."""
+        over the full lattice the wall is sampled on, Psi = the fluid particle mass times the
+        wall lattice's cell over dp^dim (as set up, ``walls["psi"]``), which makes a wall of full
+        kernel depth act like fluid at rest (the dummy-particle limit, Adami et al. 2012)."""
         if not walls.n or self.boundary != "particles":
             return
         be = self.backend
@@ -365,7 +365,7 @@ class WCSPH:
             self.volume_pass(w, w, w, P, G)
             psi = be.to_host(walls["psi"])
         else:
-            psi = np.full(walls.n, lattice_mass)
+            psi = be.to_host(walls["psi"])
         rho0 = float(P.rho0)
         walls["psi"] = be.to_device(psi.astype(self.dtype))
         walls["vol"] = be.to_device((psi / rho0).astype(self.dtype))

@@ -87,6 +87,7 @@ def build(case, backend, comm):
         integrator.fuse_first(model, fluid)
 
     body = wall0.pop("body")
+    cell = wall0.pop("cell", None)  # a wall particle's lattice cell over dp^dim
     bodies = Bodies(geometry.wall_sources(case), dim, wall0["x"], wall0.get("n"), body, Path(case["_source"]).parent,
                     _floating_bodies(case), float(np.linalg.norm(case["physics"]["gravity"])))
     if bodies.floating:  # the walls a floating body meets: the fixed containers' faces, the fixed
@@ -111,6 +112,8 @@ def build(case, backend, comm):
             walls["n0"] = be.to_device(wall0["n"].astype(dtype))
     for name, k in model.wall_fields():
         walls.add(name, k, dtype, be)
+    if "psi" in walls.arrays and cell is not None:  # the lattice's pseudo-mass, sorted with the walls
+        walls["psi"] = be.to_device((mass * cell).astype(dtype))
 
     halo = parallel.Halo(par, fluid) if par is not None else None
     state = State(case, be, grid, model, P, fluid, walls, domain=(lo, hi), h=h, c0=c0, mass=mass, par=par, halo=halo)
@@ -123,7 +126,7 @@ def build(case, backend, comm):
         be.sort(fluid, grid)
     else:  # ghosts from the other ranks, then sorted with one's own
         par.redistribute(fluid)
-    model.initialize(fluid, walls, P, state.G, mass)
+    model.initialize(fluid, walls, P, state.G)
     return Setup(state, integrator, bodies, opened, cfl, warnings)
 
 
