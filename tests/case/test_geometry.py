@@ -49,6 +49,26 @@ def test_a_box_of_any_width_is_felt_by_the_fluid_where_its_face_is(dim, width):
     assert rho == pytest.approx(1000.0, rel=0.01)
 
 
+
+def test_a_tank_of_any_size_has_its_walls_half_a_spacing_behind_its_faces():
+    """SPHERIC 2's tank (3.22 x 1 x 1 m, open top) at dp = 0.025 (128.8 spacings long): the
+    wall layers nearest each face lie half a spacing behind it (the far wall 0.2 dp further
+    on the lattice of dp from the corner), ``layers`` deep, none above the open top."""
+    dp, layers = 0.025, 4
+    tank = {"min": [0.0, 0.0, 0.0], "max": [3.22, 1.0, 1.0], "open_top": True}
+    x, cell = geometry.tank_particles(tank, dp, layers)
+    s = np.array([3.22 / 129, 1.0 / 40, 1.0 / 40])
+    assert cell == pytest.approx(np.prod(s))
+    for a in range(3):
+        assert x[a].min() == pytest.approx(-(layers - 0.5) * s[a])
+        inner = x[a][x[a] < 0]
+        assert inner.max() == pytest.approx(-0.5 * s[a])
+        if a < 2:
+            assert x[a].max() == pytest.approx(tank["max"][a] + (layers - 0.5) * s[a])
+            assert x[a][x[a] > tank["max"][a]].min() == pytest.approx(tank["max"][a] + 0.5 * s[a])
+    assert x[2].max() < 1.0
+
+
 def test_a_counter_clockwise_polygon_is_walled_outside():
     """A container's outline, counter-clockwise (the fluid inside), is sampled outside it: every
     particle outside, within ``layers`` dp of the outline, on the fluid's lattice, and all the
