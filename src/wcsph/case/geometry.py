@@ -100,12 +100,19 @@ def fitted_lattice(lo, hi, dp, below=None, above=None):
     above = above if above is not None else [0] * dim
     axes, cell = [], 1.0
     for a in range(dim):
-        n = max(1, int(round((hi[a] - lo[a]) / dp)))
-        s = (hi[a] - lo[a]) / n
-        axes.append(lo[a] + s * (0.5 + np.arange(-below[a], n + above[a])))
+        x, s = _fitted_axis(lo[a], hi[a], dp, below[a], above[a])
+        axes.append(x)
         cell *= s
     mesh = np.meshgrid(*axes, indexing="ij")
     return np.stack([m.ravel() for m in mesh]), cell
+
+
+def _fitted_axis(a, b, step, below=0, above=0):
+    """The centres of [a, b] cut into round((b - a)/step) equal pieces (at least one),
+    continued ``below`` pieces below a and ``above`` above b, and the pieces' width."""
+    n = max(1, int(round((b - a) / step)))
+    w = (b - a) / n
+    return a + w * (0.5 + np.arange(-below, n + above)), w
 
 
 def tank_particles(tank, dp, layers, periodic=(False, False, False)):
@@ -191,9 +198,8 @@ def _tiles(lo, hi, size):
             axes.append(np.array([a]))
             widths.append(1.0)
             continue
-        k = max(1, int(round((b - a) / size)))
-        w = (b - a) / k
-        axes.append(a + w * (0.5 + np.arange(k)))
+        x, w = _fitted_axis(a, b, size)
+        axes.append(x)
         widths.append(w)
     mesh = np.meshgrid(*axes, indexing="ij")
     return np.stack([m.ravel() for m in mesh]), float(np.prod(widths))
