@@ -495,23 +495,22 @@ def build(case, column=None):
                                 "close it, or use boundary elements (model.BCType = \"BIConsistent_numeric\", or "
                                 "model.name = \"bi\")")
         layers = wall_layers(case)
-        parts, cells = [], []  # each source's points and the volume of its lattice's cell
+        sources = []  # (points, the volume of their lattice's cell) of each wall source
         if case["tank"] is not None:
-            pts, cell = tank_particles(case["tank"], dp, layers, periodic_axes(case))
-            parts.append(pts), cells.append(cell)
+            sources.append(tank_particles(case["tank"], dp, layers, periodic_axes(case)))
         for box in case["obstacle"]:
-            pts, cell = obstacle_particles(box, dp, layers)
-            parts.append(pts), cells.append(cell)
+            sources.append(obstacle_particles(box, dp, layers))
         phase = np.asarray(case["fluid"][0]["min"], dtype=float) if case["fluid"] and case["fluid"][0]["min"] is not None \
             else np.zeros(dim)
-        for poly in case["polygon"]:
-            parts.append(polygon_particles(poly["points"], dp, layers, phase)), cells.append(dp ** dim)
+        for poly in case["polygon"]:  # on the fluid's lattice
+            sources.append((polygon_particles(poly["points"], dp, layers, phase), dp ** dim))
         for k, w in enumerate(case["walls"]):
-            parts.append(_file_particles(case, k, w, dp, layers)), cells.append(dp ** dim)
+            sources.append((_file_particles(case, k, w, dp, layers), dp ** dim))
+        parts = [x for x, _ in sources]
         wall_set = {"x": np.concatenate(parts, axis=1) if parts else np.zeros((dim, 0)),
                     "body": np.concatenate([np.full(p.shape[1], b, dtype=np.int64) for b, p in enumerate(parts)])
                     if parts else np.zeros(0, dtype=np.int64),
-                    "cell": np.concatenate([np.full(p.shape[1], c / dp ** dim) for p, c in zip(parts, cells)])
+                    "cell": np.concatenate([np.full(x.shape[1], c / dp ** dim) for x, c in sources])
                     if parts else np.zeros(0)}
     walls = wall_set["x"]
 
