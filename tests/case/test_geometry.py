@@ -250,3 +250,16 @@ def test_a_summation_density_column_starts_at_rest_at_its_level():
     assert abs(x[1].max() - (0.5 - 0.01)) <= 0.01 + 1e-6  # top layer within dp / 2 of the plain one's
     ramped = Simulation(validate(dict(case, physics=dict(case["physics"], gravity_ramp_time=0.5))))
     assert ramped.host(ramped.fluid, "x")[0].shape[1] == 50 * 25 < x.shape[1]
+
+
+@pytest.mark.parametrize("model, warned", [("classic", True), ("bi", False)])
+def test_an_obstacle_thinner_than_dp_is_named_for_wall_particles(model, warned):
+    """A 6 mm plate at dp = 0.02: one layer of wall particles of 0.3 of a particle's mass per
+    spacing (before the fitted lattice: none at all). The classic model warns, naming the
+    obstacle and the axis; boundary elements have no thickness and do not."""
+    case = validate(dict(CLASSIC, dp=0.02, model={"name": model},
+                         obstacle=[{"min": [0.6, 0.0], "max": [0.606, 0.3]}, {"min": [0.2, 0.6], "max": [0.3, 0.7]}]))
+    lines = geometry.thin_obstacles(case)
+    assert (lines != []) == warned
+    if warned:
+        assert len(lines) == 1 and lines[0].startswith("obstacle[0] is 0.3 dp thick along axis 0")

@@ -115,6 +115,22 @@ def _fitted_axis(a, b, step, below=0, above=0):
     return a + w * (0.5 + np.arange(-below, n + above)), w
 
 
+def thin_obstacles(case):
+    """A line for each obstacle box thinner than dp along an axis, for a model with wall
+    particles: its lattice has one layer there, of less than a fluid particle's mass per
+    spacing, and the fluid on either side meets a wall thinner than its kernel."""
+    if boundary_kind(case) != "particles":
+        return []
+    dp, out = case["dp"], []
+    for k, box in enumerate(case["obstacle"]):
+        for a, (lo, hi) in enumerate(zip(box["min"], box["max"])):
+            if hi - lo < dp * (1 - 1e-9):
+                out.append(f"obstacle[{k}] is {(hi - lo) / dp:.2g} dp thick along axis {a}: one layer of wall "
+                           "particles that thin does not keep the fluid out; use a smaller dp, or boundary "
+                           "elements for thin walls (model.name = \"bi\")")
+    return out
+
+
 def tank_particles(tank, dp, layers, periodic=(False, False, False)):
     """The tank's walls, ``layers`` deep on a lattice fitted to the tank (``fitted_lattice``),
     and their cell volume; none across a periodic axis (the lattice there spans exactly the
