@@ -363,11 +363,8 @@ class WCSPH:
         if self.volume_pass is not None:
             w = self.view(walls, self.wall_view)
             self.volume_pass(w, w, w, P, G)
-            psi = be.to_host(walls["psi"])
-        else:
-            psi = be.to_host(walls["psi"])
+        psi = be.to_host(walls["psi"])
         rho0 = float(P.rho0)
-        walls["psi"] = be.to_device(psi.astype(self.dtype))
         walls["vol"] = be.to_device((psi / rho0).astype(self.dtype))
         walls["rho"] = be.to_device(np.full(walls.n, rho0, dtype=self.dtype))
 

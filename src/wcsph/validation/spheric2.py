@@ -91,41 +91,45 @@ def probes_series(path, pressure="P"):
     return out
 
 
-if __name__ == "__main__":
-    import sys
-
-    for name, e, r, err, tol, ok in compare(figures(probes_series(*sys.argv[1:]))):
-        print(f"{name:10s} exp {e:9.4g} run {r:9.4g} err {err:+8.3f} tol {tol:g} {'ok' if ok else 'FAIL'}")
-
-
-#: the sensors on the face the water hits (x = 0.8245 m), heights [m]
-FACE_SENSORS = (("P1", 0.021), ("P2", 0.061), ("P3", 0.101), ("P4", 0.141))
+#: the sensors on the face the water hits in ``spheric2_3d``
+FACE_SENSORS = ("P1", "P2", "P3", "P4")
 
 
 def slice_case(model, dp, width=None):
-    """SPHERIC 2's x-z slice through the box as a case dict: in 2D (``width`` None) or
-    extruded ``width`` across in 3D with y periodic, the box spanning it; the face sensors
+    """SPHERIC 2's x-z slice through the box (the tank, reservoir, box and face sensors of
+    the shipped ``spheric2_3d``, the y axis dropped) as a case dict: in 2D (``width`` None)
+    or extruded ``width`` across in 3D with y periodic, the box spanning it; the face sensors
     read twice, carried to the face (``P1`` ...) and as the plain Shepard mean (``P1s`` ...),
-    every 2 ms, to t = 1.5 s. ``model``: the case's ``[model]`` table. The slice has no flow
-    round the box's sides: its figures are the models' against each other and against
-    resolution, not against the experiment (docs/accuracy.md §2b, §2h)."""
-    def at(x, z, y=None):
-        return [x, z] if width is None else [x, y, z]
+    every 2 ms. ``model``: the case's ``[model]`` table. The slice has no flow round the
+    box's sides: its figures are the models' against each other and against resolution, not
+    against the experiment (docs/accuracy.md §2b, §2h)."""
+    import tomllib
+
+    from ..case.config import CASES_DIR
+
+    with open(CASES_DIR / "spheric2_3d.toml", "rb") as f:
+        full = tomllib.load(f)
+
+    def cut(v, y):  # x, z of a 3D point; in 3D with y in its place
+        return [v[0], v[2]] if width is None else [v[0], y, v[2]]
+
+    def box(b, extra=()):
+        return dict(extra, min=cut(b["min"], 0.0), max=cut(b["max"], width))
 
     probes = []
-    for name, z in FACE_SENSORS:
-        probes.append({"name": name, "kind": "pressure", "position": at(0.8245, z, width and width / 2),
-                       "extrapolate": True})
-        probes.append({"name": name + "s", "kind": "pressure", "position": at(0.8245, z, width and width / 2)})
-    y = width or 0.0
-    case = {"dim": 2 if width is None else 3, "dp": dp, "model": dict(model), "time": {"end": 1.5},
-            "fluid": [{"min": at(1.992, 0.0, 0.0), "max": at(3.22, 0.55, y)}],
-            "tank": {"min": at(0.0, 0.0, 0.0), "max": at(3.22, 1.0, y), "open_top": True},
-            "obstacle": [{"min": at(0.6635, 0.0, 0.0), "max": at(0.8245, 0.161, y)}],
-            "physics": {"gravity": at(0.0, -9.81, 0.0)},
+    for pr in full["probes"]:
+        if pr["name"] in FACE_SENSORS:
+            at = cut(pr["position"], width and width / 2)
+            probes += [{"name": pr["name"], "kind": "pressure", "position": at, "extrapolate": True},
+                       {"name": pr["name"] + "s", "kind": "pressure", "position": at}]
+    case = {"dim": 2 if width is None else 3, "dp": dp, "model": dict(model), "time": full["time"],
+            "fluid": [box(b) for b in full["fluid"]], "tank": box(full["tank"], {"open_top": True}),
+            "obstacle": [box(b) for b in full["obstacle"]], "physics": {"gravity": cut(full["physics"]["gravity"], 0.0)},
             "output": {"vtk": False, "progress": False, "probe_interval": 0.002}, "probes": probes}
     if width is not None:
-        case["domain"] = {"min": [-0.2, 0.0, -0.2], "max": [3.42, width, 2.0], "periodic": [False, True, False]}
+        lo, hi = full["tank"]["min"], full["tank"]["max"]
+        case["domain"] = {"min": [lo[0] - 0.2, 0.0, lo[2] - 0.2], "max": [hi[0] + 0.2, width, 2 * hi[2]],
+                          "periodic": [False, True, False]}
     return case
 
 
@@ -137,5 +141,13 @@ def face_means(path):
         rows = list(csv.DictReader(f))
     t = np.array([float(r["time"]) for r in rows])
     sel = (t >= WINDOW[0]) & (t <= WINDOW[1])
-    names = [n for n in rows[0] if n.rstrip("s") in dict(FACE_SENSORS)]
+    names = [n for n in rows[0] if n.rstrip("s") in FACE_SENSORS]
     return {n: float(np.mean(np.array([float(r[n]) for r in rows])[sel])) for n in names}
+
+
+if __name__ == "__main__":
+    import sys
+
+    for name, e, r, err, tol, ok in compare(figures(probes_series(*sys.argv[1:]))):
+        print(f"{name:10s} exp {e:9.4g} run {r:9.4g} err {err:+8.3f} tol {tol:g} {'ok' if ok else 'FAIL'}")
+
