@@ -6,8 +6,9 @@ kinds, after the model:
 * wall particles (classic model): ``layers`` deep behind the wall surface (the tank's inner
   faces, an obstacle's faces), on a lattice fitted to each box (``fitted_lattice``: a whole
   number of spacings of about dp across it), so that every face is half a spacing beyond its
-  outer layer; each point carries its cell's volume over dp^dim (``cell``), which scales its
-  pseudo-mass;
+  outer layer; a 2D polygon's in rows along its outline (``polygon_particles``), the outline
+  half a spacing beyond the first; a mesh's on the fluid's lattice; each point carries its
+  cell's volume over dp^dim (``cell``), which scales its pseudo-mass;
 * boundary elements (WCSPH-BI): the wall surface cut into segments (2D) or rectangular faces
   (3D) of size about ``boundaryElementSize`` (a length in 2D, an area in 3D; default dp or dp^2), each with its centre ``x``, size
   ``elementSize`` (length or area) and unit normal ``n``.
@@ -175,19 +176,121 @@ def obstacle_particles(box, dp, layers):
     return pts[:, ~_inside(pts, lo + layers * dp, hi - layers * dp)], cell
 
 
-def polygon_particles(points, dp, layers, phase):
-    """Wall particles of a closed polygon: the points of the lattice of phase ``phase`` (the
-    fluid's) within ``layers`` dp of its outline on its solid side. The fluid is on the left
-    of the direction of travel, so the solid side is the inside of a clockwise outline (a
-    body) and the outside of a counter-clockwise one (a container)."""
+def polygon_particles(points, dp, layers):
+    """Wall particles of a closed polygon, in rows along its outline on its solid side: row k
+    on the curve (k + 1/2) dp from the outline, so that the outline lies half a spacing
+    beyond the first row wherever it runs, as a box's faces do (``fitted_lattice``). Each
+    row is cut at its corners (where the outline turns by more than ``CORNER`` towards the
+    solid) into stretches of round(length / dp) equal pieces, a particle at each corner and
+    between the pieces; a row without corners is cut evenly all round, a stretch that ends
+    where the row is left out (the solid thinner than the row's depth) ends half a piece
+    from there. A rectangle on the fluid's lattice gets the obstacle box's particles. The
+    fluid is on the left of the direction of travel, so the solid side is the inside of a
+    clockwise outline (a body) and the outside of a counter-clockwise one (a container).
+    Returns (points (2, N), each point's cell: its pieces' mean length times dp)."""
     pts = np.asarray(points, dtype=float)
-    t = layers * dp
-    phase = np.asarray(phase, dtype=float)
-    lo = phase + dp * np.floor((pts.min(axis=0) - t - phase) / dp)
-    hi = phase + dp * np.ceil((pts.max(axis=0) + t - phase) / dp)
-    x = lattice(lo, hi, dp)
-    inside = _in_polygon(x, pts, 0.0)
-    return x[:, (~inside if holds_fluid(pts) else inside) & (_outline_distance(x, pts) < t)]
+    pts = pts[np.linalg.norm(pts - np.roll(pts, 1, axis=0), axis=1) > 1e-12 * max(1.0, np.ptp(pts))]
+    body = not holds_fluid(pts)
+    xs, cells = [], []
+    for k in range(layers):
+        x, cell = _row(pts, (k + 0.5) * dp, dp, body)
+        keep = _sparse(x, 0.5 * dp)  # a row that meets itself (the solid 2d thick) once
+        xs.append(x[:, keep])
+        cells.append(cell[keep])
+    return np.concatenate(xs, axis=1), np.concatenate(cells)
+
+
+#: a row of wall particles has a corner where its polygon turns by more than this towards the
+#: solid [rad]
+CORNER = math.radians(15.0)
+
+
+def _row(pts, d, dp, body):
+    """The particles of the row at distance d from the closed outline ``pts`` (M, 2) on its
+    right (the solid side) and their cells: the edges moved out by d, joined by their
+    intersection where the outline turns right (a corner if by more than ``CORNER``) and by
+    an arc about the vertex where it turns left; the curve sampled every dp/8 at most (an
+    arc every dp/64); the
+    stretches nearer the outline than d (where the solid is thinner than 2d) left out."""
+    e = np.roll(pts, -1, axis=0) - pts
+    t = e / np.linalg.norm(e, axis=1)[:, None]
+    n = np.stack([t[:, 1], -t[:, 0]], axis=1)  # right of the direction of travel
+    joints, sharp = [], []
+    for i in range(len(pts)):
+        n0, n1 = n[i - 1], n[i]
+        turn = t[i - 1, 0] * t[i, 1] - t[i - 1, 1] * t[i, 0]
+        angle = math.atan2(turn, t[i - 1] @ t[i])  # > 0 a left turn, < 0 a right one
+        if angle < 0.0:  # the moved edges cross on the solid side
+            joints.append(pts[i] + d * (n0 + n1) / (1.0 + n0 @ n1))
+            sharp.append(angle < -CORNER)
+        else:
+            a0 = math.atan2(n0[1], n0[0])
+            m = max(1, int(math.ceil(angle * d / (dp / 64))))  # chords within 1e-4 dp of the arc
+            a = a0 + angle * np.arange(m + 1) / m
+            joints.extend(pts[i] + d * np.stack([np.cos(a), np.sin(a)], axis=1))
+            sharp.extend([False] * (m + 1))
+    curve = np.array(joints + [joints[0]])
+    dense, corner = [curve[:1]], [np.array(sharp[:1])]
+    for j, (a, b) in enumerate(zip(curve[:-1], curve[1:])):
+        m = max(1, int(math.ceil(np.linalg.norm(b - a) / (dp / 8))))
+        dense.append(a + (b - a) * (np.arange(1, m + 1) / m)[:, None])
+        corner.append(np.r_[np.zeros(m - 1, dtype=bool), sharp[(j + 1) % len(sharp)]])
+    dense, corner = np.concatenate(dense).T[:, :-1], np.concatenate(corner)[:-1]  # closed: the last is the first
+    ok = np.abs(_outline_distance(dense, pts) - d) < 1e-3 * dp
+    ok &= _in_polygon(dense, pts, 0.0) == body
+    if ok.all() and not corner.any():  # a closed row without corners, cut evenly all round
+        stretches = [(np.concatenate([dense, dense[:, :1]], axis=1), False, False)]
+    else:  # stretches from a corner or a cut to the next corner or cut
+        first = int(np.argmax(~ok | corner))
+        dense, ok, corner = (np.roll(a, -first, axis=-1) for a in (dense, ok, corner))
+        dense, ok, corner = np.c_[dense, dense[:, :1]], np.r_[ok, ok[0]], np.r_[corner, corner[0]]
+        stretches, run = [], None
+        for i in range(dense.shape[1]):
+            if not ok[i]:
+                if run is not None and len(run) > 1:
+                    stretches.append((dense[:, run], bool(corner[run[0]]), False))
+                run = None
+            elif run is None:
+                run = [i]
+            else:
+                run.append(i)
+                if corner[i]:
+                    stretches.append((dense[:, run], bool(corner[run[0]]), True))
+                    run = [i]
+    xs, cells, ends = [], [], []
+    for line, from_corner, to_corner in stretches:
+        at = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=1), axis=0))])
+        if at[-1] < 0.25 * dp:  # (between two corners: the next stretch starts about where this one does)
+            continue
+        # particles at a0 + j s, j < m, the last s (to a corner: the next stretch's) or s/2 from the end
+        a0, b = (0.0 if from_corner else 0.5), (1.0 if to_corner else 0.5)
+        m = max(1, int(round(at[-1] / dp - a0 - b + 1)))
+        s = at[-1] / (m - 1 + a0 + b)
+        w = s * (a0 + np.arange(m))
+        xs.append(np.stack([np.interp(w, at, line[0]), np.interp(w, at, line[1])]))
+        cells.append(np.full(m, s * dp))
+        ends.append((from_corner, to_corner, s))
+    if not xs:
+        return np.zeros((2, 0)), np.zeros(0)
+    for j, (from_corner, _, s) in enumerate(ends):  # a corner's cell: half a piece on either side
+        if from_corner and ends[j - 1][1]:
+            cells[j][0] = 0.5 * (s + ends[j - 1][2]) * dp
+    return np.concatenate(xs, axis=1), np.concatenate(cells)
+
+
+def _sparse(x, r):
+    """Which points of x (dim, N) to keep so that no two kept ones are nearer than r, in
+    order: the first of each cluster."""
+    keep = np.ones(x.shape[1], dtype=bool)
+    cells = {}
+    for i, c in enumerate(map(tuple, np.floor(x.T / r).astype(np.int64))):
+        near = [j for off in np.ndindex(*(3,) * x.shape[0])
+                for j in cells.get(tuple(ci + o - 1 for ci, o in zip(c, off)), ())]
+        if any(np.sum((x[:, j] - x[:, i]) ** 2) < r * r for j in near):
+            keep[i] = False
+        else:
+            cells.setdefault(c, []).append(i)
+    return keep
 
 
 def _outline_distance(x, pts, closed=True):
@@ -511,22 +614,21 @@ def build(case, column=None):
                                 "close it, or use boundary elements (model.BCType = \"BIConsistent_numeric\", or "
                                 "model.name = \"bi\")")
         layers = wall_layers(case)
-        sources = []  # (points, the volume of their lattice's cell) of each wall source
+        sources = []  # (points, the volume of their cells: one for all or one each) of each wall source
         if case["tank"] is not None:
             sources.append(tank_particles(case["tank"], dp, layers, periodic_axes(case)))
         for box in case["obstacle"]:
             sources.append(obstacle_particles(box, dp, layers))
-        phase = np.asarray(case["fluid"][0]["min"], dtype=float) if case["fluid"] and case["fluid"][0]["min"] is not None \
-            else np.zeros(dim)
-        for poly in case["polygon"]:  # on the fluid's lattice
-            sources.append((polygon_particles(poly["points"], dp, layers, phase), dp ** dim))
+        for poly in case["polygon"]:
+            sources.append(polygon_particles(poly["points"], dp, layers))
         for k, w in enumerate(case["walls"]):
             sources.append((_file_particles(case, k, w, dp, layers), dp ** dim))
         parts = [x for x, _ in sources]
         wall_set = {"x": np.concatenate(parts, axis=1) if parts else np.zeros((dim, 0)),
                     "body": np.concatenate([np.full(p.shape[1], b, dtype=np.int64) for b, p in enumerate(parts)])
                     if parts else np.zeros(0, dtype=np.int64),
-                    "cell": np.concatenate([np.full(x.shape[1], c / dp ** dim) for x, c in sources])
+                    "cell": np.concatenate([np.broadcast_to(np.asarray(c, dtype=float) / dp ** dim, x.shape[1:])
+                                            for x, c in sources])
                     if parts else np.zeros(0)}
     walls = wall_set["x"]
 
