@@ -424,11 +424,12 @@ def _classic_cylinder():
     has) and XSPH on the momentum (epsilon = 0.01, as the classic 3D check), the walls no-slip
     by Adami's extrapolated velocity (as the classic channels need: a viscous fluid sticks to
     the body; with the walls' own velocity alone the wake had little drag, and the error was
-    11.1 % where it is 5.5 %; docs/accuracy.md §5). The column is
+    11.1 % where it was 5.5 %, with the polygon's wall particles on the fluid's lattice; in
+    rows along its outline, a smooth wall, 13.1 %; docs/accuracy.md §5). The column is
     sampled compressed to its hydrostatic density (``geometry.compressed_lattice``), so the
     water stands at the cylinder's centre at the release, 0.5 s, as in the WCSPH-BI case (on
     a plain lattice it settled 0.13 m lower, and the less immersed body's error was 20 %
-    where it is 11 % now)."""
+    where it was 11 % then)."""
     from ..case.config import read_toml, resolve
 
     data = read_toml(resolve("cylinder_entry_2d"))
