@@ -316,3 +316,29 @@ def test_an_obstacle_thinner_than_dp_is_named_for_wall_particles(model, warned):
     assert (lines != []) == warned
     if warned:
         assert len(lines) == 1 and lines[0].startswith("obstacle[0] is 0.3 dp thick along axis 0")
+
+
+@pytest.mark.parametrize("model, warned", [("classic", True), ("bi", False)])
+def test_a_polygon_thinner_than_dp_in_places_is_named_for_wall_particles(model, warned):
+    """A block with a fin 0.6 dp thick and 10 dp tall standing on it: the rows of wall
+    particles stop where the solid is thinner than they are deep, so the fin gets none and
+    0.93 m of outline (its two sides, less the ends its neighbours reach) is bare. The
+    classic model warns, naming the polygon; a block without the fin, a 60-degree wedge and
+    the boundary elements do not."""
+    fin = [[0.2, 0.1], [0.2, 0.3], [0.5, 0.3], [0.5, 0.8], [0.53, 0.8], [0.53, 0.3], [0.8, 0.3], [0.8, 0.1]]
+    wedge = [[0.5, 0.1], [0.3, 0.1 + 0.2 * math.sqrt(3)], [0.7, 0.1 + 0.2 * math.sqrt(3)]][::-1]
+    block = [[0.2, 0.1], [0.2, 0.3], [0.8, 0.3], [0.8, 0.1]]
+    polys = [{"points": p, "closed": True} for p in (block, fin, wedge)]
+    lines = geometry.thin_obstacles(validate(dict(CLASSIC, model={"name": model}, polygon=polys)))
+    assert (lines != []) == warned
+    if warned:
+        assert len(lines) == 1 and lines[0].startswith("polygon[1] has 0.93 m of its outline more than 1.5 dp")
+
+
+def test_a_polygon_thinner_than_dp_everywhere_is_one_line():
+    """A sliver 0.2 dp thick gets no wall particle at all: a case error naming it, not a wall
+    that is not there."""
+    sliver = [[0.2, 0.6], [0.2, 0.61], [0.8, 0.61], [0.8, 0.6]]
+    case = validate(dict(CLASSIC, polygon=[{"points": sliver, "closed": True}]))
+    with pytest.raises(CaseError, match=r"polygon\[0\]: thinner than dp = 0.05 everywhere"):
+        geometry.build(case)

@@ -119,7 +119,10 @@ def _fitted_axis(a, b, step, below=0, above=0):
 def thin_obstacles(case):
     """A line for each obstacle box thinner than dp along an axis, for a model with wall
     particles: its lattice has one layer there, of less than a fluid particle's mass per
-    spacing, and the fluid on either side meets a wall thinner than its kernel."""
+    spacing, and the fluid on either side meets a wall thinner than its kernel. And one for
+    each closed polygon whose first row of wall particles leaves a stretch of its outline
+    more than ``GAP`` dp from any of them: a tip or a fin thinner than dp, where the rows
+    stop (``polygon_particles``) and the fluid can pass."""
     if boundary_kind(case) != "particles":
         return []
     dp, out = case["dp"], []
@@ -129,7 +132,36 @@ def thin_obstacles(case):
                 out.append(f"obstacle[{k}] is {(hi - lo) / dp:.2g} dp thick along axis {a}: one layer of wall "
                            "particles that thin does not keep the fluid out; use a smaller dp, or boundary "
                            "elements for thin walls (model.name = \"bi\")")
+    for k, poly in enumerate(case["polygon"]):
+        if poly["closed"]:
+            bare = _bare_outline(poly["points"], dp)
+            if bare > 0.0:
+                out.append(f"polygon[{k}] has {bare:.3g} m of its outline more than {GAP:g} dp from its wall "
+                           "particles (a tip or part thinner than dp, where the rows of wall particles stop): "
+                           "the fluid can pass there; use a smaller dp, or boundary elements for thin walls "
+                           "(model.name = \"bi\")")
     return out
+
+
+#: a polygon's outline is bare where its nearest wall particle is further than this, in dp (the
+#: first row stands half a spacing off it, its particles a spacing apart: 0.71 dp at most)
+GAP = 1.5
+
+
+def _bare_outline(points, dp):
+    """The length of the closed outline ``points`` further than ``GAP`` dp from its first row
+    of wall particles."""
+    pts = np.asarray(points, dtype=float)
+    x, _ = polygon_particles(pts, dp, 1)
+    ends = np.roll(pts, -1, axis=0)
+    m = np.maximum(1, np.ceil(np.linalg.norm(ends - pts, axis=1) / (0.25 * dp)).astype(int))
+    bare = 0.0
+    for a, b, n in zip(pts, ends, m):
+        s = a + (b - a) * ((np.arange(n) + 0.5) / n)[:, None]
+        far = np.ones(n, dtype=bool) if x.shape[1] == 0 else \
+            np.min(((s[:, :, None] - x[None, :, :]) ** 2).sum(axis=1), axis=1) > (GAP * dp) ** 2
+        bare += np.linalg.norm(b - a) / n * far.sum()
+    return float(bare)
 
 
 def tank_particles(tank, dp, layers, periodic=(False, False, False)):
@@ -619,8 +651,11 @@ def build(case, column=None):
             sources.append(tank_particles(case["tank"], dp, layers, periodic_axes(case)))
         for box in case["obstacle"]:
             sources.append(obstacle_particles(box, dp, layers))
-        for poly in case["polygon"]:
+        for k, poly in enumerate(case["polygon"]):
             sources.append(polygon_particles(poly["points"], dp, layers))
+            if sources[-1][0].shape[1] == 0:
+                raise CaseError(f"{src}: polygon[{k}]: thinner than dp = {dp} everywhere, it gets no wall "
+                                "particle; use a smaller dp, or boundary elements for thin walls (model.name = \"bi\")")
         for k, w in enumerate(case["walls"]):
             sources.append((_file_particles(case, k, w, dp, layers), dp ** dim))
         parts = [x for x, _ in sources]
