@@ -59,7 +59,7 @@ def _parser():
                         description="Run each validation case (Poiseuille, Couette, Taylor-Green, hydrostatic "
                                     "tanks, a coarse SPHERIC 2; with the full set also the dam breaks against "
                                     "Martin & Moyce and Koshizuka & Oka, convergence studies, SPHERIC 2 in both "
-                                    "models, SPHERIC 6, Lobovsky et al. 2014, the floating box, Fekken's cylinder "
+                                    "models, SPHERIC 6, Lobovsky et al. 2014, the floating box, the sinking cylinder (Moyo & Greenhow 2000) "
                                     "in both models, the oscillating cylinder, the wave flume and the CIEM "
                                     "flume's record), compare it with its reference "
                                     "and tolerance, and write DIR/report.md with a pass/fail table and a plot "

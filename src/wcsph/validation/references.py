@@ -105,6 +105,14 @@ def fekken_cylinder():
     return d[:, 0], d[:, 1]
 
 
+def moyo_greenhow_cylinder():
+    """(T, displacement [m]) of Moyo & Greenhow's (2000) experiment on the case of
+    ``fekken_cylinder`` (whose figures are a numerical model's), scaled to R = 1 m,
+    T = t sqrt(g/R); the record starts at T = 0.5."""
+    d = np.loadtxt(DATA / "moyo_greenhow_2000_cylinder_displacement.dat", comments="#")
+    return d[:, 0], d[:, 1]
+
+
 def ciem_wavemaker():
     """(t [s], piston [m], {gauge: elevation [m]}) of the CIEM flume's regular waves (scaled,
     T = 1 s), as DualSPHysics ships them with CaseWavemaker2D: WG1 and WG2 0.35 and 1.80 m from
