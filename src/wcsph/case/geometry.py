@@ -150,18 +150,15 @@ GAP = 1.5
 
 def _bare_outline(points, dp):
     """The length of the closed outline ``points`` further than ``GAP`` dp from its first row
-    of wall particles."""
+    of wall particles (sampled every dp/4; ``_clear_of`` finds the samples with no particle
+    that near)."""
     pts = np.asarray(points, dtype=float)
     x, _ = polygon_particles(pts, dp, 1)
     ends = np.roll(pts, -1, axis=0)
-    m = np.maximum(1, np.ceil(np.linalg.norm(ends - pts, axis=1) / (0.25 * dp)).astype(int))
-    bare = 0.0
-    for a, b, n in zip(pts, ends, m):
-        s = a + (b - a) * ((np.arange(n) + 0.5) / n)[:, None]
-        far = np.ones(n, dtype=bool) if x.shape[1] == 0 else \
-            np.min(((s[:, :, None] - x[None, :, :]) ** 2).sum(axis=1), axis=1) > (GAP * dp) ** 2
-        bare += np.linalg.norm(b - a) / n * far.sum()
-    return float(bare)
+    length = np.linalg.norm(ends - pts, axis=1)
+    m = np.maximum(1, np.ceil(length / (0.25 * dp)).astype(int))
+    s = np.concatenate([a + (b - a) * ((np.arange(n) + 0.5) / n)[:, None] for a, b, n in zip(pts, ends, m)]).T
+    return float(np.repeat(length / m, m)[_clear_of(s, x, GAP * dp)].sum())
 
 
 def tank_particles(tank, dp, layers, periodic=(False, False, False)):
@@ -312,16 +309,13 @@ def _row(pts, d, dp, body):
 
 def _sparse(x, r):
     """Which points of x (dim, N) to keep so that no two kept ones are nearer than r, in
-    order: the first of each cluster."""
+    order: the first of each cluster (only the points with another within r are visited)."""
     keep = np.ones(x.shape[1], dtype=bool)
-    cells = {}
-    for i, c in enumerate(map(tuple, np.floor(x.T / r).astype(np.int64))):
-        near = [j for off in np.ndindex(*(3,) * x.shape[0])
-                for j in cells.get(tuple(ci + o - 1 for ci, o in zip(c, off)), ())]
-        if any(np.sum((x[:, j] - x[:, i]) ** 2) < r * r for j in near):
+    crowded = np.flatnonzero(~_clear_of(x, x, r, same=True))
+    for n, i in enumerate(crowded):
+        kept = crowded[:n][keep[crowded[:n]]]
+        if np.any(np.sum((x[:, kept] - x[:, i:i + 1]) ** 2, axis=0) < r * r):
             keep[i] = False
-        else:
-            cells.setdefault(c, []).append(i)
     return keep
 
 
@@ -481,10 +475,10 @@ def _file_fluid(case, k, block, dp):
     return pts, None, None
 
 
-def _clear_of(x, pts, r):
+def _clear_of(x, pts, r, same=False):
     """Which points of x (dim, N) have no point of ``pts`` (dim, M) within r: the points hashed
     into cells of edge r, each point of x tested against those in the 3^dim cells about its
-    own."""
+    own. ``same``: ``pts`` is x itself, and a point is not tested against itself."""
     keep = np.ones(x.shape[1], dtype=bool)
     if not pts.shape[1] or not x.shape[1]:
         return keep
@@ -504,6 +498,8 @@ def _clear_of(x, pts, r):
         a, b = np.searchsorted(pk, k, "left"), np.searchsorted(pk, k, "right")
         for n in range(int(np.max(b - a))):  # the n-th point of each cell, where it has one
             has = a + n < b
+            if same:
+                has[has] = order[a[has] + n] != np.flatnonzero(has)
             j = a[has] + n
             keep[np.flatnonzero(has)[np.sum((x[:, has] - pts[:, j]) ** 2, axis=0) < r * r]] = False
     return keep
