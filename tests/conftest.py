@@ -1,6 +1,19 @@
+import os
+import sys
+
 import pytest
 
-from wcsph.validation.references import DATA
+# One thread per test process (the suite runs a worker per core, up to four): the loops of
+# the passes then compile without Numba's parallel form, about a third less compile time
+# (backends/cpu._loop); subprocesses inherit it. The parallel loops are run by
+# tests/backends/test_cache.py::test_a_process_of_two_threads_runs_parallel_loops_of_its_own.
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+if "numba" in sys.modules:  # imported before this file: one thread for this process too
+    import numba
+
+    numba.set_num_threads(min(numba.config.NUMBA_NUM_THREADS, int(os.environ["NUMBA_NUM_THREADS"])))
+
+from wcsph.validation.references import DATA  # noqa: E402
 
 
 @pytest.fixture

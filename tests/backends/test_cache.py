@@ -308,3 +308,49 @@ def test_every_view_a_model_passes_is_found_by_name_in_a_fresh_process():
     r = subprocess.run([sys.executable, "-c", check, json.dumps(made)], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     assert json.loads(r.stdout.strip().splitlines()[-1]) == [], r.stdout
+
+
+def test_the_plain_and_the_parallel_loop_of_one_closure_keep_their_own_cache_entries(tmp_path):
+    """A process of one thread compiles a pass's loop without ``parallel`` (``cpu._loop``), one
+    of several threads with it: the same Python closure, which Numba's key alone does not tell
+    apart. Over one cache each process compiles its own variant once and then loads it; one
+    never loads the other's (``numba_cache.VARIANT``). Without the variant in the key the
+    second process loaded the first one's loop (a hit where a miss is asked)."""
+    script = os.path.join(os.path.dirname(__file__), "loop_variants.py")
+    seen = []
+    for threads in ("1", "2", "1", "2"):
+        env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), NUMBA_NUM_THREADS=threads)
+        r = subprocess.run([sys.executable, script], capture_output=True, text=True, env=env, timeout=600)
+        assert r.returncode == 0, r.stderr[-2000:]
+        seen.append(r.stdout.split())
+    assert seen == [["False", "0", "1", "ok"], ["True", "0", "1", "ok"],
+                    ["False", "1", "0", "ok"], ["True", "1", "0", "ok"]], seen
+
+
+def test_a_process_of_two_threads_runs_parallel_loops_of_its_own(cache_dir, tmp_path):
+    """The suite's processes run one thread each (tests/conftest.py), so the passes' loops
+    they run are the plain ones; here the 2D dam break runs 30 steps with two threads, in
+    Numba's parallel loops, and with one: the same surge front at every output and the same
+    number of steps (the loops differ only in how their particles are shared out; the
+    time step's reduction may add in another order)."""
+    import csv
+
+    runs = {}
+    for threads in ("2", "1"):
+        out = tmp_path / threads
+        env = dict(os.environ, NUMBA_NUM_THREADS=threads)
+        if cache_dir is not None:
+            env["NUMBA_CACHE_DIR"] = str(cache_dir)
+        cmd = [sys.executable, "-m", "wcsph.cli", "run", "dam_break_2d", "-o", str(out), "--no-progress",
+               "--dp", "0.04", "--set", "time.max_steps=30", "--set", "output.vtk=false",
+               "--set", "output.probe_interval=0.001"]
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        with open(out / "probes.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+        runs[threads] = (json.loads((out / "run.json").read_text())["steps"],
+                         [(float(r["time"]), float(r["surge_front"])) for r in rows])
+    (steps2, rows2), (steps1, rows1) = runs["2"], runs["1"]
+    assert steps2 == steps1 == 30 and len(rows2) == len(rows1) >= 5
+    for (t2, z2), (t1, z1) in zip(rows2, rows1):
+        assert t2 == pytest.approx(t1, rel=1e-5) and z2 == pytest.approx(z1, rel=1e-4, abs=1e-6)

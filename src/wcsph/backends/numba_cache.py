@@ -43,6 +43,12 @@ was removed). Here a function of this package is stamped with the package's sour
 well (``package_stamp``: every ``.py`` file's path, timestamp and size), so an edit anywhere
 in it compiles its loops again; a clean checkout or an install is cold either way.
 
+**Variants.** A loop compiled without ``parallel`` (``cpu._loop``, in a process of one
+thread) shares the Python function, its closure and so Numba's key and JIT name with the
+parallel loop of the same pass: its ``VARIANT`` is added to both (``_key_with_variant``,
+``_content_id``), so that a process of one thread never loads the parallel loop a process of
+several saved, nor the other way round.
+
 **Compiled or loaded.** A cached ``parallel=True, fastmath=True`` loop ran other machine code
 in the process that compiled it than in every process that loaded it (``saved_first``): a
 restart, or a second run in one process, was then not bit for bit the run before it.
@@ -90,9 +96,16 @@ def _locked(index_path, exclusive):
     return _holding(index_path + ".lock", lambda f: fcntl.flock(f, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH))
 
 
+#: the attribute of a Python function that names its compiled variant (``"serial"``: a loop
+#: compiled without ``parallel``, ``cpu._loop``): part of its cache key and of its JIT name,
+#: so that the two variants of one function neither load nor link as each other
+VARIANT = "_wcsph_variant"
+
+
 def _content_id(func):
-    """A number for a closure from its code and its cells' contents (None when it has no
-    closure or they cannot be pickled): equal closures get equal numbers in every process."""
+    """A number for a closure from its code, its cells' contents and its ``VARIANT`` (None
+    when it has no closure or they cannot be pickled): equal closures get equal numbers in
+    every process."""
     closure = getattr(func, "__closure__", None)
     if not closure:
         return None
@@ -103,7 +116,27 @@ def _content_id(func):
         code = marshal.dumps(func.__code__)
     except Exception:  # an unpicklable cell, an empty one: Numba's counter
         return None
-    return int(hashlib.sha256(code + cells).hexdigest()[:15], 16)
+    variant = getattr(func, VARIANT, "").encode()
+    return int(hashlib.sha256(code + cells + variant).hexdigest()[:15], 16)
+
+
+def _key_with_variant():
+    """Numba's cache key of a function, with its ``VARIANT`` where it has one."""
+    try:
+        from numba.core.caching import Cache
+    except ImportError:
+        return
+    if getattr(Cache._index_key, "_wcsph_guarded", False):
+        return
+    own = Cache._index_key
+
+    def _index_key(self, sig, codegen):
+        key = own(self, sig, codegen)
+        variant = getattr(self._py_func, VARIANT, None)
+        return key if variant is None else key + (variant,)
+
+    _index_key._wcsph_guarded = True
+    Cache._index_key = _index_key
 
 
 def _name_closures_by_content():
@@ -183,6 +216,7 @@ def _compiling(index_path, key):
 
 def install():
     _name_closures_by_content()
+    _key_with_variant()
     _stamp_with_package()
     try:
         from numba.core.caching import IndexDataCacheFile
