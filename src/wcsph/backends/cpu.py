@@ -31,8 +31,9 @@ def _loop(**options):
     a third less without it (measured: the first steps of ``hydrostatic_2d_bi``, 26.2 s
     against 16.4). The plain loop takes NumPy's error model, as the parallel body does:
     with Python's, each division carries a test for zero and the pair terms were not inlined
-    (the WCSPH-BI interaction pass ran 2 times slower than the parallel loop on one thread,
-    and 400 times with the reference counts of the views' arrays at each call). The plain
+    (measured, the WCSPH-BI interaction pass on one thread: 400 times the parallel loop's
+    time, the views' arrays reference-counted at each call; 2 times with Numba's reference
+    counting off; the same time with NumPy's error model). The plain
     loop is a variant of its own in Numba's cache and in the JIT's names
     (``numba_cache.VARIANT``): a process of either kind never loads or links the other's."""
     parallel = numba.get_num_threads() > 1
