@@ -464,15 +464,16 @@ def test_moving_square_is_pushed_back_by_the_fluid(tmp_path):
 def test_a_moving_body_load_does_not_depend_on_how_a_step_is_split():
     """Each evaluation sees a wall on a prescribed path where it is at that evaluation's time,
     and the after-step corrections where it is at the step's end: the square of
-    ``moving_square_2d`` (10 across) after one step of dt, or of 0.1 dt and 0.9 dt, then 20
-    steps more, feels the same force to 1 % (measured 3e-5 from t = 0.5 s, where the square
-    moves at 0.5 m/s and accelerates, with the parallel loops of a process of several threads;
-    7e-5 from 1.2 s; with the walls held at the step's start through the step and its
-    corrections the split set the drag ringing, 15 % off after 20 steps from 1.2 s). With the
-    plain loops of a one-thread process (the suite's) it is 2.9e-3: a fluid particle just
+    ``moving_square_2d`` (10 across) after one step of dt, or of 0.1 dt and 0.9 dt from
+    t = 1.2 s, then 20 steps more, feels the same force to 1e-3 (measured 5e-6 with the plain
+    loops of a one-thread process, the suite's, and 1.2e-5 with the parallel ones; with the
+    walls held at the step's start through the step and its corrections the split set the
+    drag ringing, 15 % off after 20 steps from 1.2 s). From t = 0.5 s, where the square still
+    accelerates, the parallel loops read 3e-5 and the plain ones 2.9e-3: a fluid particle just
     in front of the square's face is bounced (the elastic bounce's threshold) after one of the
-    two splits and not after the other, its velocity 0.05 m/s apart; the split's own effect on
-    every other particle is 5e-6 m/s. The symplectic Verlet's two evaluations are at t and
+    two splits and not after the other, its velocity 0.05 m/s apart, while the split's own
+    effect on every other particle is 5e-6 m/s; a test of the walls' timing should not hang
+    on that particle's round-off. The symplectic Verlet's two evaluations are at t and
     t + dt/2."""
     over = [("dp", 0.1), ("output.vtk", False), ("output.progress", False)]
     a, b = wcsph.Simulation(load("moving_square_2d", over)), wcsph.Simulation(load("moving_square_2d", over))
@@ -483,7 +484,7 @@ def test_a_moving_body_load_does_not_depend_on_how_a_step_is_split():
         seen.append(b.walls_t)
         return derivatives(*args, **kw)
 
-    while a.t < 0.5:
+    while a.t < 1.2:
         dt = a.time_step()
         a.step(dt)
         b.step(dt)
@@ -499,7 +500,7 @@ def test_a_moving_body_load_does_not_depend_on_how_a_step_is_split():
         a.step(a.time_step())
         b.step(b.time_step())
     fa, fb = a.body_loads()["square_fx"], b.body_loads()["square_fx"]
-    assert abs(fb / fa - 1.0) < 1e-2, (fa, fb)
+    assert abs(fb / fa - 1.0) < 1e-3, (fa, fb)
 
 
 @pytest.mark.validation  # 20 across to 6 s: about three minutes here
