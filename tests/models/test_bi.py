@@ -342,3 +342,16 @@ def test_bi_case_errors_name_the_key(data, message):
     base.update(copy.deepcopy(data))
     with pytest.raises(CaseError, match=message.replace("[", r"\[").replace("]", r"\]")):
         validate(base, src="c.toml")
+
+
+def test_spheric2_reservoir_lead_reads_a_shift_of_the_record():
+    """The reservoir lead of the SPHERIC 2 check is the shift that lays a run's H4 over the
+    experiment's drop: the record itself reads 0, the record 15 ms late reads 15 ms, 20 ms early
+    reads -20 ms, to the fit's 0.1 ms step, and so does each 3 mm low (a compressed column's
+    start, which the level would have read as about 10 ms)."""
+    from wcsph.validation import spheric2
+
+    t, h = spheric2.experiment()["H4"]
+    for shift in (0.0, 0.015, -0.02):
+        for low in (0.0, 0.003):
+            assert spheric2.reservoir_lead({"H4": (t + shift, h - low)}) == pytest.approx(shift, abs=1e-4)

@@ -317,7 +317,10 @@ def _spheric2(label, quick, overrides=()):
     detail = (f"dp = {sim.dp:g} m, {sim.n_fluid()} fluid particles. Error: absolute for times [s] and levels [m], "
               "relative for pressures.\n\n| figure | experiment | run | error | tolerance |\n|---|---|---|---|---|\n"
               + "\n".join(f"| {n} | {e:.4g} | {r:.4g} | {err:+.3g} | {tol:g}{'' if n not in spheric2.SHOWN_ONLY else ' (shown)'} |"
-                          for n, e, r, err, tol, _ in rows))
+                          for n, e, r, err, tol, _ in rows)
+              + f"\n\nThe experiment's reservoir (H4) drains {1e3 * spheric2.reservoir_lead(run):.0f} ms ahead of the run's over "
+              f"{spheric2.LEAD_WINDOW[0]:g}-{spheric2.LEAD_WINDOW[1]:g} s, before the flood reaches a gauge or the box "
+              "(shown, not judged: the experiment's clock against a release at t = 0; docs/accuracy.md §2h).")
     exp = spheric2.experiment()
     curves = []
     end = float(run["P1"][0][-1])

@@ -75,6 +75,34 @@ def compare(run):
     return rows
 
 
+#: the reservoir's drawdown window [s]: from after the H4 gauge's ringing at the release (the
+#: record's first 30 ms swing +-4 mm about its level) to before the flood reaches any gauge
+#: downstream; each series' initial level is its mean over the first ``LEAD_START`` s
+LEAD_WINDOW, LEAD_START = (0.05, 0.3), 0.03
+
+
+def reservoir_lead(run):
+    """How far ahead of a run [s] the experiment's reservoir drains: the shift s that makes the
+    run's drop of H4 below its initial level at t + s fit the experiment's at t best (least
+    squares, 0.1 ms steps within +-0.1 s) over ``LEAD_WINDOW``. The drop, not the level: a run's
+    column starts at its hydrostatic density, which reads up to 3 mm low at c0 = 10 sqrt(gH)
+    and would pass for 10 ms. The reservoir's level in that window is set by the release alone
+    (the flow out of the reservoir, before the flood reaches a gauge or the box), so s measures
+    the experiment's clock against a run released at t = 0 (docs/accuracy.md §2h). Shown, not
+    judged."""
+    def drop(t, h):
+        t, h = np.asarray(t, dtype=float), np.asarray(h, dtype=float)
+        return t, h[t <= t[0] + LEAD_START].mean() - h
+
+    te, de = drop(*experiment()["H4"])
+    t, d = drop(*run["H4"])
+    sel = (te >= LEAD_WINDOW[0]) & (te <= LEAD_WINDOW[1])
+    shifts = np.arange(-0.1, 0.1 + 5e-5, 1e-4)
+    shifts = shifts[te[sel][-1] + shifts <= t[-1]]
+    cost = [np.mean((np.interp(te[sel] + s, t, d) - de[sel]) ** 2) for s in shifts]
+    return float(shifts[int(np.argmin(cost))])
+
+
 def probes_series(path, pressure="P"):
     """{name: (t, values)} of a run's ``probes.csv``: the columns H1..H4 and, as P1..P8, the
     columns named ``pressure`` + 1..8."""
