@@ -143,6 +143,36 @@ def thin_obstacles(case):
     return out
 
 
+#: a fluid box whose lattice of dp falls short of it by more than this fraction of its length
+#: along an axis is named at the start (``short_blocks``)
+SHORT = 0.01
+
+
+def short_blocks(case, rounded_top=False):
+    """A line for each fluid box and axis where the lattice of dp (``lattice``: whole spacings
+    from the box's lower face) holds more than ``SHORT`` less than the box: a box L long
+    holds floor(L / dp) spacings, so SPHERIC 2's 0.55 m deep reservoir at dp = 0.035 is
+    0.525 m of water (15 spacings, 4.5 % short), and a dam break's flood is that column's.
+    ``rounded_top``: the vertical is sampled by ``compressed_lattice`` (a summation density's
+    column at rest), which rounds its layers to the nearest whole number and is not
+    checked."""
+    dp, dim, out = case["dp"], case["dim"], []
+    for k, block in enumerate(case["fluid"]):
+        if block["min"] is None:  # a point file or a surface: sampled as given
+            continue
+        for a, (lo, hi) in enumerate(zip(block["min"], block["max"])):
+            if rounded_top and a == dim - 1:
+                continue
+            length = hi - lo
+            n = int(math.floor(length / dp + 1e-6))
+            if n and length - n * dp > SHORT * length:
+                fit = length / max(1, int(round(length / dp)))
+                out.append(f"fluid[{k}] is {length:g} m along axis {a} and holds {n} spacings of dp = {dp:g} m "
+                           f"({n * dp:.4g} m of fluid, {100 * (1 - n * dp / length):.1f} % short); a dp that divides "
+                           f"{length:g} m samples it whole (e.g. {fit:.4g} m)")
+    return out
+
+
 #: a polygon's outline is bare where its nearest wall particle is further than this, in dp (the
 #: first row stands half a spacing off it, its particles a spacing apart: 0.71 dp at most)
 GAP = 1.5

@@ -57,7 +57,7 @@ def build(case, backend, comm):
     grid = _grid(case, lo, hi, h)
     _check_indices(case, be, grid, fluid0["x"].shape[1] + wall0["x"].shape[1])
     warnings = list(case.get("_warnings", ()))  # settings that make results doubtful
-    warnings += geometry.thin_obstacles(case)
+    warnings += geometry.thin_obstacles(case) + geometry.short_blocks(case, column is not None)
     mass = model.particle_mass(dp, h, ph["rho0"], w_np)
     integrator, cfl = _integrator(case, be, model, warnings)
     if h < dp * (1 - 1e-9):
