@@ -357,7 +357,7 @@ def test_a_fluid_box_its_lattice_falls_short_of_is_named():
     assert [line.split(" (")[0] for line in lines] == [
         "fluid[0] is 1 m along axis 1 and holds 28 spacings of dp = 0.035 m",
         "fluid[0] is 0.55 m along axis 2 and holds 15 spacings of dp = 0.035 m"]
-    assert "0.525 m of fluid, 4.5 % short" in lines[1] and lines[1].endswith("(e.g. 0.03438 m)")
+    assert "0.525 m of fluid, 4.5 % short" in lines[1] and lines[1].endswith("(e.g. 0.03438 m), or fill = \"fitted\" the box as drawn")
     case = load("spheric2_3d", [("dp", 0.02)])
     assert [line.split(" (")[0] for line in geometry.short_blocks(case)] == [
         "fluid[0] is 0.55 m along axis 2 and holds 27 spacings of dp = 0.02 m"]

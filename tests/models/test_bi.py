@@ -355,3 +355,42 @@ def test_spheric2_reservoir_lead_reads_a_shift_of_the_record():
     for shift in (0.0, 0.015, -0.02):
         for low in (0.0, 0.003):
             assert spheric2.reservoir_lead({"H4": (t + shift, h - low)}) == pytest.approx(shift, abs=1e-4)
+
+
+def test_a_fitted_fluid_box_holds_the_water_it_is_drawn_with():
+    """The still tank 0.5 m deep at dp = 0.035, where whole spacings of dp hold 14 of them
+    (0.49 m, 2 % short): with ``fill = "fitted"`` the box holds round(L/dp) spacings of L/n
+    along each axis and each particle the mass of its cell, so the water's mass is rho0 times
+    the box to round-off, its particles lie half a cell inside each face, and the tank's load
+    at the hydrostatic start is the drawn column's weight within 0.2 %. The plain lattice's
+    water is 2.2 % short of it (0.49 m deep, 1.995 m wide), and its start's pressure is that of
+    the depth it holds (the load rho0 g 0.49 m over the floor within 0.2 %; until 2026-12-07
+    the drawn depth's, 2 % more)."""
+    rgh_l = 1000.0 * 9.81 * 0.5 * 2.0  # the drawn column's weight per unit width [N/m]
+    loads = {}
+    for fill in ("lattice", "fitted"):
+        case = load("hydrostatic_2d_bi", [("dp", 0.035), ("time.end", 0.001), ("output.vtk", False),
+                                          ("tank.name", "tank"), ("fluid", [{"min": [0.0, 0.0], "max": [2.0, 0.5],
+                                                                             "fill": fill}]),
+                                          ("model.BCType", "BIConservative_numeric"), ("model.ViscousTerm", "None")])
+        sim = wcsph.Simulation(case)
+        x = sim.host(sim.fluid, "x")[0]
+        m = sim.host(sim.fluid, "m")[0]
+        loads[fill] = sim.body_loads()["tank_fy"]
+        if fill == "fitted":
+            assert x.shape[1] == 57 * 14 and float(np.sum(m)) == pytest.approx(1000.0 * 2.0 * 0.5, rel=1e-5)
+            assert x[1].max() == pytest.approx(0.5 - 0.25 / 14, abs=1e-5) and x[0].min() == pytest.approx(1.0 / 57, abs=1e-5)
+            assert any("fluid[0]" in w for w in sim.warnings) is False
+        else:
+            assert any(w.startswith("fluid[0] is 0.5 m along axis 1 and holds 14 spacings") for w in sim.warnings)
+            assert float(np.sum(m)) == pytest.approx(1000.0 * 57 * 0.035 * 14 * 0.035, rel=1e-5)
+    assert loads["fitted"] == pytest.approx(-rgh_l, rel=0.002)
+    assert loads["lattice"] == pytest.approx(-9.81 * 1000.0 * 2.0 * 14 * 0.035, rel=0.002)
+
+
+def test_a_fitted_fluid_box_needs_a_continuity_density():
+    """A summation density's column at rest is sampled compressed, layer by layer: a fitted
+    box under it is a case error naming the key."""
+    with pytest.raises(CaseError, match=r"fluid\[0\]\.fill: \"fitted\" takes a continuity density"):
+        wcsph.Simulation(load("hydrostatic_2d", [("dp", 0.05), ("physics.gravity_ramp_time", 0.0),
+                                                 ("fluid", [{"min": [0.0, 0.0], "max": [1.0, 0.5], "fill": "fitted"}])]))

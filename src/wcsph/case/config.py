@@ -34,7 +34,10 @@ BLOCK = {"min": ("vec", REQUIRED, None), "max": ("vec", REQUIRED, None)}
 #: a fluid block is a box (min, max), a point ``file`` (CSV or VTK) or a closed ``surface``
 #: mesh to fill (``io.readers``)
 FLUID_BLOCK = {"min": ("vec", None, None), "max": ("vec", None, None), "file": ("str", "", None),
-               "surface": ("str", "", None), "velocity": ("field", None, None), "pressure": ("formula", None, None)}
+               "surface": ("str", "", None), "velocity": ("field", None, None), "pressure": ("formula", None, None),
+               # "lattice": whole spacings of dp from min; "fitted": round(L/dp) spacings of L/n along
+               # each axis, the particles' mass the cell's (``geometry.fitted_lattice``)
+               "fill": ("str", "lattice", one_of("lattice", "fitted"))}
 #: what every wall source (tank, obstacle, polygon) may add: a body name (its force and torque
 #: go to probes.csv) and a prescribed motion (``motion.MOTION``) or a ``floating`` table (a
 #: rigid body moved by the fluid and gravity, ``floating.FLOATING``)

@@ -155,10 +155,10 @@ def short_blocks(case, rounded_top=False):
     0.525 m of water (15 spacings, 4.5 % short), and a dam break's flood is that column's.
     ``rounded_top``: the vertical is sampled by ``compressed_lattice`` (a summation density's
     column at rest), which rounds its layers to the nearest whole number and is not
-    checked."""
+    checked. A box with ``fill = "fitted"`` is sampled as drawn and is not named."""
     dp, dim, out = case["dp"], case["dim"], []
     for k, block in enumerate(case["fluid"]):
-        if block["min"] is None:  # a point file or a surface: sampled as given
+        if block["min"] is None or block["fill"] == "fitted":  # sampled as given, or fitted to the box
             continue
         for a, (lo, hi) in enumerate(zip(block["min"], block["max"])):
             if rounded_top and a == dim - 1:
@@ -169,7 +169,7 @@ def short_blocks(case, rounded_top=False):
                 fit = length / max(1, int(round(length / dp)))
                 out.append(f"fluid[{k}] is {length:g} m along axis {a} and holds {n} spacings of dp = {dp:g} m "
                            f"({n * dp:.4g} m of fluid, {100 * (1 - n * dp / length):.1f} % short); a dp that divides "
-                           f"{length:g} m samples it whole (e.g. {fit:.4g} m)")
+                           f"{length:g} m samples it whole (e.g. {fit:.4g} m), or fill = \"fitted\" the box as drawn")
     return out
 
 
@@ -693,7 +693,7 @@ def build(case, column=None):
                     if parts else np.zeros(0)}
     walls = wall_set["x"]
 
-    xs, vs, tops, ps = [], [], [], []
+    xs, vs, tops, ps, cells = [], [], [], [], []
     wall_files = _wall_files(case)
     for k, block in enumerate(case["fluid"]):
         if block["min"] is None:  # a point file or a surface to fill
@@ -703,6 +703,7 @@ def build(case, column=None):
             if block["surface"]:  # a lattice, as a box's: cut as a box is (a point file is taken as given)
                 x = _carved(case, x, dp, wall_files)
             xs.append(x)
+            cells.append(np.ones(x.shape[1]))
             vs.append(np.stack([evaluate(str(c), x) for c in block["velocity"]]) if block["velocity"] is not None
                       else (v_file if v_file is not None else np.zeros_like(x)))
             tops.append(np.full(x.shape[1], x[-1].max() + 0.5 * dp))
@@ -717,16 +718,27 @@ def build(case, column=None):
                 if block["min"][a] < t["min"][a] - 1e-9 * dp or block["max"][a] > hi_a + 1e-9 * dp:
                     raise CaseError(f"{src}: fluid[{k}]: block reaches into the tank wall on axis {a} "
                                     f"(tank interior is {t['min']} .. {t['max']})")
-        if column is not None and block["pressure"] is None:
+        cell = 1.0  # the particles' cell over dp^dim
+        top = block["max"][-1]  # the surface the block's hydrostatic start counts its depth from
+        if block["fill"] == "fitted":
+            if column is not None and block["pressure"] is None:
+                raise CaseError(f"{src}: fluid[{k}].fill: \"fitted\" takes a continuity density (model.density = "
+                                "\"continuity\"): a summation density's column at rest is sampled compressed, "
+                                "layer by layer (fill = \"lattice\")")
+            x, cell = fitted_lattice(block["min"], block["max"], dp)
+            cell /= dp ** dim
+        elif column is not None and block["pressure"] is None:
             x = compressed_lattice(block["min"], block["max"], dp, column)
-        else:
+        else:  # whole spacings from min: the water ends where they do (``short_blocks``)
             x = lattice(block["min"], block["max"], dp)
+            top = block["min"][-1] + math.floor((top - block["min"][-1]) / dp + 1e-6) * dp
         if x.shape[1] == 0:
             raise CaseError(f"{src}: fluid[{k}]: block is thinner than dp = {dp}, it holds no particle")
         x = _carved(case, x, dp, wall_files)
         xs.append(x)
+        cells.append(np.full(x.shape[1], cell))
         vs.append(np.stack([evaluate(str(c), x) for c in (block["velocity"] or [0.0] * dim)]))
-        tops.append(np.full(x.shape[1], block["max"][-1]))
+        tops.append(np.full(x.shape[1], top))
         ps.append(evaluate(str(block["pressure"]), x) if block["pressure"] is not None
                   else np.full(x.shape[1], np.nan))
     fluid_x = np.concatenate(xs, axis=1)
@@ -769,7 +781,8 @@ def build(case, column=None):
                 if out.any():
                     raise CaseError(f"{src}: fluid: {int(out.sum())} fluid particles lie outside the periodic "
                                     f"box {lo[a]:g} .. {hi[a]:g} along axis {a}")
-    fluid = {"x": fluid_x, "v": fluid_v, "top": np.concatenate(tops), "p": np.concatenate(ps)}
+    fluid = {"x": fluid_x, "v": fluid_v, "top": np.concatenate(tops), "p": np.concatenate(ps),
+             "cell": np.concatenate(cells)}
     return fluid, wall_set, lo, hi
 
 

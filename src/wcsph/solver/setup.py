@@ -65,7 +65,7 @@ def build(case, backend, comm):
                         "neighbours and the SPH sums are meaningless")
     P = model.params(dict(kernel_params(m["kernel"], dim, h), rc=grid.support), ph["rho0"], c0, h, gravity, 1.0, w_np)
 
-    x, v = fluid0["x"], fluid0["v"]
+    x, v, cell0 = fluid0["x"], fluid0["v"], fluid0["cell"]
     rho = model.initial_density(x, fluid0["top"], P, gravity, fluid0["p"])
     ids = np.arange(x.shape[1], dtype=np.int64)  # follows the particle
     kind = fluid0.get("kind")
@@ -73,14 +73,14 @@ def build(case, backend, comm):
     if comm is not None and comm.Get_size() > 1:  # every rank built the case: keep one's own
         par = _decomposition(case, comm, grid, be, np.concatenate([x, wall0["x"]], axis=1), opened)
         mine = par.split(x)
-        x, v, rho, ids = x[:, mine], v[:, mine], rho[mine], ids[mine]
+        x, v, rho, ids, cell0 = x[:, mine], v[:, mine], rho[mine], ids[mine], cell0[mine]
     elif model.refresh_fn is not None:
         integrator.fuse_refresh(model.refresh_fn)
     fluid = ParticleSet("fluid", dim, {"x": be.to_device(x.astype(dtype)), "v": be.to_device(v.astype(dtype))})
     for name, k, scratch in list(model.fluid_fields()) + list(integrator.fields):
         fluid.add(name, k, dtype, be, scratch=scratch)
     fluid["rho"] = be.to_device(rho.astype(dtype))
-    fluid["m"] = be.to_device(np.full(x.shape[1], mass, dtype=dtype))
+    fluid["m"] = be.to_device((mass * cell0).astype(dtype))  # a fitted box's cell is not dp^dim
     fluid["id"] = be.to_device(ids)
     if kind is not None:
         fluid["kind"] = be.to_device(kind)  # 0 fluid, 1 + k the buffer of open_boundary[k]
@@ -170,7 +170,7 @@ def _with_buffers(case, fluid0, opened, lo, hi, dp):
     n = fluid0["x"].shape[1]
     return {"x": np.concatenate([fluid0["x"], bx], axis=1), "v": np.concatenate([fluid0["v"], bv], axis=1),
             "top": np.concatenate([fluid0["top"], np.full(bx.shape[1], bx[-1].max() + 0.5 * dp)]),
-            "p": np.concatenate([fluid0["p"], bp]),
+            "p": np.concatenate([fluid0["p"], bp]), "cell": np.concatenate([fluid0["cell"], np.ones(bx.shape[1])]),
             "kind": np.concatenate([np.zeros(n, dtype=np.int64), bkind])}
 
 
