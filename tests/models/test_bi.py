@@ -390,7 +390,11 @@ def test_a_fitted_fluid_box_holds_the_water_it_is_drawn_with():
 
 def test_a_fitted_fluid_box_needs_a_continuity_density():
     """A summation density's column at rest is sampled compressed, layer by layer: a fitted
-    box under it is a case error naming the key."""
-    with pytest.raises(CaseError, match=r"fluid\[0\]\.fill: \"fitted\" takes a continuity density"):
+    box under it is a case error naming the key (with a gravity ramp the column starts on
+    the lattice and a fitted box is taken)."""
+    with pytest.raises(CaseError, match=r"fluid\[0\]\.fill: \"fitted\" does not take a summation density's column at rest"):
         wcsph.Simulation(load("hydrostatic_2d", [("dp", 0.05), ("physics.gravity_ramp_time", 0.0),
                                                  ("fluid", [{"min": [0.0, 0.0], "max": [1.0, 0.5], "fill": "fitted"}])]))
+    ramped = wcsph.Simulation(load("hydrostatic_2d", [("dp", 0.05), ("physics.gravity_ramp_time", 0.5),
+                                                      ("fluid", [{"min": [0.0, 0.0], "max": [1.0, 0.53], "fill": "fitted"}])]))
+    assert float(np.sum(ramped.host(ramped.fluid, "m")[0])) == pytest.approx(ramped.mass / 0.05 ** 2 * 0.53, rel=1e-5)

@@ -722,9 +722,9 @@ def build(case, column=None):
         top = block["max"][-1]  # the surface the block's hydrostatic start counts its depth from
         if block["fill"] == "fitted":
             if column is not None and block["pressure"] is None:
-                raise CaseError(f"{src}: fluid[{k}].fill: \"fitted\" takes a continuity density (model.density = "
-                                "\"continuity\"): a summation density's column at rest is sampled compressed, "
-                                "layer by layer (fill = \"lattice\")")
+                raise CaseError(f"{src}: fluid[{k}].fill: \"fitted\" does not take a summation density's column "
+                                "at rest, which is sampled compressed, layer by layer: use fill = \"lattice\", a "
+                                "continuity density (model.density = \"continuity\") or physics.gravity_ramp_time")
             x, cell = fitted_lattice(block["min"], block["max"], dp)
             cell /= dp ** dim
         elif column is not None and block["pressure"] is None:
