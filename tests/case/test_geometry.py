@@ -349,16 +349,19 @@ def test_a_fluid_box_its_lattice_falls_short_of_is_named():
     reservoir (1.228 x 1 x 0.55 m) at dp = 0.035 is 0.98 m wide and 0.525 m deep, at 0.02
     0.54 m deep. The start names each box and axis short by more than 1 % and a dp that fills
     it; at the case's own dp = 0.025 (1.225 m long, 0.2 % short) nothing is said. A summation
-    density's column at rest rounds its layers to the nearest and its depth is not named."""
+    density's column at rest rounds its layers to the nearest and its depth is not named; a
+    fitted box (the shipped case's) is sampled as drawn and is not named either."""
     from wcsph.case.config import load
 
-    assert geometry.short_blocks(load("spheric2_3d")) == []
-    lines = geometry.short_blocks(load("spheric2_3d", [("dp", 0.035)]))
+    plain = [("fluid", [{"min": [1.992, 0.0, 0.0], "max": [3.22, 1.0, 0.55]}])]
+    assert geometry.short_blocks(load("spheric2_3d", plain)) == []
+    assert geometry.short_blocks(load("spheric2_3d", [("dp", 0.035)])) == []  # fill = "fitted"
+    lines = geometry.short_blocks(load("spheric2_3d", plain + [("dp", 0.035)]))
     assert [line.split(" (")[0] for line in lines] == [
         "fluid[0] is 1 m along axis 1 and holds 28 spacings of dp = 0.035 m",
         "fluid[0] is 0.55 m along axis 2 and holds 15 spacings of dp = 0.035 m"]
     assert "0.525 m of fluid, 4.5 % short" in lines[1] and lines[1].endswith("(e.g. 0.03438 m), or fill = \"fitted\" the box as drawn")
-    case = load("spheric2_3d", [("dp", 0.02)])
+    case = load("spheric2_3d", plain + [("dp", 0.02)])
     assert [line.split(" (")[0] for line in geometry.short_blocks(case)] == [
         "fluid[0] is 0.55 m along axis 2 and holds 27 spacings of dp = 0.02 m"]
     assert geometry.short_blocks(case, rounded_top=True) == []

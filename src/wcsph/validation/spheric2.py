@@ -151,7 +151,7 @@ def slice_case(model, dp, width=None):
             probes += [{"name": pr["name"], "kind": "pressure", "position": at, "extrapolate": True},
                        {"name": pr["name"] + "s", "kind": "pressure", "position": at}]
     case = {"dim": 2 if width is None else 3, "dp": dp, "model": dict(model), "time": full["time"],
-            "fluid": [box(b) for b in full["fluid"]], "tank": box(full["tank"], {"open_top": True}),
+            "fluid": [box(b, {"fill": b.get("fill", "lattice")}) for b in full["fluid"]], "tank": box(full["tank"], {"open_top": True}),
             "obstacle": [box(b) for b in full["obstacle"]], "physics": {"gravity": cut(full["physics"]["gravity"], 0.0)},
             "output": {"vtk": False, "progress": False, "probe_interval": 0.002}, "probes": probes}
     if width is not None:
