@@ -380,7 +380,7 @@ def test_a_fitted_fluid_box_holds_the_water_it_is_drawn_with():
         if fill == "fitted":
             assert x.shape[1] == 57 * 14 and float(np.sum(m)) == pytest.approx(1000.0 * 2.0 * 0.5, rel=1e-5)
             assert x[1].max() == pytest.approx(0.5 - 0.25 / 14, abs=1e-5) and x[0].min() == pytest.approx(1.0 / 57, abs=1e-5)
-            assert any("fluid[0]" in w for w in sim.warnings) is False
+            assert not any("fluid[0]" in w for w in sim.warnings)
         else:
             assert any(w.startswith("fluid[0] is 0.5 m along axis 1 and holds 14 spacings") for w in sim.warnings)
             assert float(np.sum(m)) == pytest.approx(1000.0 * 57 * 0.035 * 14 * 0.035, rel=1e-5)
