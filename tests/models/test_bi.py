@@ -388,7 +388,7 @@ def test_a_fitted_fluid_box_holds_the_water_it_is_drawn_with():
     assert loads["lattice"] == pytest.approx(-9.81 * 1000.0 * 2.0 * 14 * 0.035, rel=0.002)
 
 
-def test_a_fitted_fluid_box_needs_a_continuity_density():
+def test_a_fitted_fluid_box_is_refused_for_a_summation_density_column_at_rest():
     """A summation density's column at rest is sampled compressed, layer by layer: a fitted
     box under it is a case error naming the key (with a gravity ramp the column starts on
     the lattice and a fitted box is taken)."""
