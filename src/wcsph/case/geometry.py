@@ -34,11 +34,16 @@ from ..io.readers import GeometryError, face_elements, inside, read_points, read
 from ..physics.kernels import SUPPORT, smoothing_length
 
 
+def spacings(a, b, dp):
+    """How many whole spacings of dp the interval [a, b] holds (``lattice``'s count per axis)."""
+    return int(math.floor((b - a) / dp + 1e-6))
+
+
 def lattice(lo, hi, dp):
     """Points lo + dp/2 + k dp inside the box [lo, hi], as a (dim, N) array."""
     axes = []
     for a, b in zip(lo, hi):
-        n = int(math.floor((b - a) / dp + 1e-6))
+        n = spacings(a, b, dp)
         axes.append(a + dp * (0.5 + np.arange(n)))
     mesh = np.meshgrid(*axes, indexing="ij")
     return np.stack([m.ravel() for m in mesh]) if axes else np.zeros((0, 0))
@@ -164,7 +169,7 @@ def short_blocks(case, rounded_top=False):
             if rounded_top and a == dim - 1:
                 continue
             length = hi - lo
-            n = int(math.floor(length / dp + 1e-6))
+            n = spacings(lo, hi, dp)
             if n and length - n * dp > SHORT * length:
                 fit = length / max(1, int(round(length / dp)))
                 out.append(f"fluid[{k}] is {length:g} m along axis {a} and holds {n} spacings of dp = {dp:g} m "
@@ -731,7 +736,7 @@ def build(case, column=None):
             x = compressed_lattice(block["min"], block["max"], dp, column)
         else:  # whole spacings from min: the water ends where they do (``short_blocks``)
             x = lattice(block["min"], block["max"], dp)
-            top = block["min"][-1] + math.floor((top - block["min"][-1]) / dp + 1e-6) * dp
+            top = block["min"][-1] + spacings(block["min"][-1], top, dp) * dp
         if x.shape[1] == 0:
             raise CaseError(f"{src}: fluid[{k}]: block is thinner than dp = {dp}, it holds no particle")
         x = _carved(case, x, dp, wall_files)
