@@ -214,3 +214,37 @@ def test_werner_wengle_wall_law_gives_the_power_laws_shear(P, ctx):
         assert f_law[0] == pytest.approx(ratio * f_lam_t, rel=1e-9) and ratio > 5
         assert f_law[1] == pytest.approx(f_lam_n, rel=1e-12) and f_law[1] == pytest.approx(f_lam[1], rel=1e-12)
         assert f_law[0] * ut < 0  # against the slip
+
+
+def test_wall_law_read_at_a_layer_thickness_gives_that_layers_shear(P, ctx):
+    """With ``wall_layer`` = delta the law is read at max(y, delta): a particle nearer the wall
+    than delta, sliding at u_t, takes the tangential force of the layer delta thick with outer
+    speed u_t (the laminar one times rho u_tau^2 y / (mu u_t), u_tau from the power law at
+    delta), the same wherever it is inside the layer; beyond delta it is read at its own y (the
+    layer 0 case); and a slip too slow for the law is the no-slip term."""
+    from wcsph.physics.viscosity import make_boundary_viscosity
+
+    Elem = namedtuple("Elem", "x n v elementSize")
+    Fluid = namedtuple("Fluid", "x v rho")
+    J = Elem(np.zeros((3, 1)), np.array([[0.0], [-1.0], [0.0]]), np.zeros((3, 1)), np.array([0.01]))
+    nu, delta, ut = 1e-6, 0.02, 2.0
+    laminar = make_boundary_viscosity(ctx, False)
+    law = make_boundary_viscosity(ctx, False, "werner-wengle")
+
+    def tangential(term, y, layer, u=ut):
+        Pw = P._replace(wall_nu=nu, wall_visc=2.0 * 1e-3, wall_layer=layer)
+        I = Fluid(np.array([[0.0], [y], [0.0]]), np.array([[u], [0.0], [0.0]]), np.array([1000.0]))
+        return term(0, 0, 0.0, y, 0.0, y, I, J, Pw, ZERO)[2]
+
+    lo, hi = 1e-6, ut
+    for _ in range(200):
+        u_tau = (lo * hi) ** 0.5
+        lo, hi = (u_tau, hi) if ut / u_tau > 8.3 * (delta * u_tau / nu) ** (1 / 7) else (lo, u_tau)
+    for y in (0.002, 0.005, 0.0125):  # inside the layer: the layer's shear, not the particle's own
+        ratio = u_tau ** 2 * y / (nu * ut)
+        assert tangential(law, y, delta) == pytest.approx(ratio * tangential(laminar, y, delta), rel=1e-9)
+        assert abs(tangential(law, y, delta)) < abs(tangential(law, y, 0.0))  # read at y: a thinner layer's
+    y = 0.03  # beyond the layer: read at its own distance, as without one
+    assert tangential(law, y, delta) == tangential(law, y, 0.0)
+    slow = 100 * nu / delta  # y_l+ below 11.81: the laminar term
+    assert tangential(law, 0.005, delta, slow) == tangential(laminar, 0.005, delta, slow)

@@ -85,10 +85,15 @@ def make_boundary_viscosity(ctx, artificial, law="no-slip"):
     At a particle y = -d from the element's plane, sliding along it at u_t, the law's shear
     is mu_eff u_t / y with mu_eff / mu = max(1, (y u_t / nu)^(3/4) / 8.3^(7/4)), which the
     term applies to the tangential slip (the normal part keeps mu). Below y+ = 11.81 it is the
-    no-slip term itself."""
+    no-slip term itself. With a layer thickness delta (``P.wall_layer`` > 0) the law is read
+    at y_l = max(y, delta): the shear of a layer delta thick whose outer speed is the
+    particle's, tau = rho (u_t / 8.3)^(7/4) (nu / y_l)^(1/4), so mu_eff / mu =
+    max(1, (y_l u_t / nu)^(3/4) / 8.3^(7/4) y / y_l). The particles do not resolve the layer
+    (no eddy viscosity makes one), so the first rows slide at about the outer speed; read at
+    their own y = dp/2 the law is the shear of a layer dp/2 thick, which grows as dp shrinks."""
     w, dim, zero, dtype = ctx.w, ctx.dim, ctx.zero, ctx.dtype
     turbulent = law == "werner-wengle"
-    one, three_quarters, ww = dtype(1), dtype(0.75), dtype(1.0 / 8.3 ** 1.75)
+    one, three_quarters, ww, tiny = dtype(1), dtype(0.75), dtype(1.0 / 8.3 ** 1.75), dtype(1e-30)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
@@ -104,8 +109,9 @@ def make_boundary_viscosity(ctx, artificial, law="no-slip"):
         if turbulent:  # compile-time choice: the tangential slip takes the wall law's viscosity
             un = ux * J.n[0, j] + uy * J.n[1, j] + uz * nz
             tx, ty, tz = ux - un * J.n[0, j], uy - un * J.n[1, j], uz - un * nz
-            re_y = -d * (tx * tx + ty * ty + tz * tz) ** 0.5 / P.wall_nu
-            g = max(one, re_y ** three_quarters * ww) - one
+            y_l = max(max(-d, P.wall_layer), tiny)  # tiny: a particle behind the plane (d = 0) takes nothing
+            re_y = y_l * (tx * tx + ty * ty + tz * tz) ** 0.5 / P.wall_nu
+            g = max(one, re_y ** three_quarters * ww * (-d / y_l)) - one
             return add_force(acc, f * (ux + g * tx), f * (uy + g * ty), f * (uz + g * tz))
         return add_force(acc, f * ux, f * uy, f * uz)
 
@@ -223,6 +229,9 @@ WALL_LAW = Param("wall_law", "no-slip", "the boundary elements' shear: 'no-slip'
                  "'werner-wengle' (a turbulent boundary layer's wall law, Werner & Wengle 1991, for walls "
                  "whose boundary layer the particles do not resolve)", kind="str",
                  check=one_of("no-slip", "werner-wengle"), walls=("elements",))
+WALL_LAYER = Param("wall_layer", 0.0, "the turbulent boundary layer's thickness delta the wall law is read at "
+                   "(y = max(y, delta)); 0 reads it at each particle's own distance", unit="m", check=NONNEG,
+                   walls=("elements",))
 
 
 def _wall_law_check(m):
@@ -245,8 +254,9 @@ def _values(coef, physical=False):
     def values(q):
         c = coef(q)
         out = {"visc": c, "wall_visc": c * q.m["scaleBVTCoef"]}
-        if physical:  # the wall law's nu
+        if physical:  # the wall law's nu and layer
             out["wall_nu"] = q.m["dynamicViscosity"] / q.ph["rho0"]
+            out["wall_layer"] = q.m["wall_layer"]
         return out
     return values
 
@@ -265,11 +275,11 @@ add("viscous", Choice(
     implies=WALL_VOLUME))
 add("viscous", Choice(
     "PhysicalViscosity_MVT", "Morris, Fox & Zhu (1997); WCSPH-BI spec (MVT row)", "2 mu sum_j V_j v_ij x_ij.grad W_ij/(r^2+eps h^2)",
-    params=(MU, SCALE, WALL_LAW), p_fields=("visc", "wall_visc", "wall_nu"),
+    params=(MU, SCALE, WALL_LAW, WALL_LAYER), p_fields=("visc", "wall_visc", "wall_nu", "wall_layer"),
     values=_values(lambda q: 2.0 * q.m["dynamicViscosity"], physical=True), build=_builder(make_mvt), nu=physical_nu, check=_wall_law_check, implies=WALL_VOLUME))
 add("viscous", Choice(
     "PhysicalViscosity_MGVT", "Monaghan & Gingold (1983); WCSPH-BI spec (MGVT row)",
-    "2 (n+2) mu sum_j psi_ij grad W_ij V_j", params=(MU, SCALE, WALL_LAW), p_fields=("visc", "wall_visc", "wall_nu"),
+    "2 (n+2) mu sum_j psi_ij grad W_ij V_j", params=(MU, SCALE, WALL_LAW, WALL_LAYER), p_fields=("visc", "wall_visc", "wall_nu", "wall_layer"),
     values=_values(lambda q: 2.0 * (q.dim + 2) * q.m["dynamicViscosity"], physical=True), build=_builder(make_mgvt), nu=physical_nu, check=_wall_law_check,
     implies=WALL_VOLUME))
 
@@ -297,8 +307,8 @@ add("viscous", Choice(
     "the MVT laminar term with mu plus the divergence of the sub-particle-scale stress tau (Smagorinsky "
     "eddy viscosity (C_s dp)^2 |S|, Yoshizawa's isotropic part C_I dp^2 |S|^2), the velocity gradient from "
     "a pass before each interaction",
-    params=(MU, SCALE, WALL_LAW,
+    params=(MU, SCALE, WALL_LAW, WALL_LAYER,
             Param("sps_smagorinsky", 0.12, "Smagorinsky's constant C_s (the filter width is dp)", check=POS),
             Param("sps_blin", 0.0066, "C_I of the isotropic part (Blin et al. 2002)", check=NONNEG)),
-    p_fields=("visc", "wall_visc", "wall_nu", "sps_cs2", "sps_ci"), values=_sps_values, build=_sps_build,
+    p_fields=("visc", "wall_visc", "wall_nu", "wall_layer", "sps_cs2", "sps_ci"), values=_sps_values, build=_sps_build,
     nu=physical_nu, check=_wall_law_check, implies=frozenset({"wall_volume", "stress"}), passes=_sps_passes))
