@@ -307,6 +307,7 @@ def _spheric2(label, quick, overrides=()):
         sim.run(tmp, progress=False)
         run = spheric2.probes_series(Path(tmp) / "probes.csv")
     rows = spheric2.compare(spheric2.figures(run))
+    lead = spheric2.reservoir_lead(run)
     if quick:
         judged = [r for r in rows if r[0] in ("P1 impact", "H4 mean")]
         passed = all(abs(r[3]) <= 2 * r[4] for r in judged)
@@ -318,9 +319,11 @@ def _spheric2(label, quick, overrides=()):
               "relative for pressures.\n\n| figure | experiment | run | error | tolerance |\n|---|---|---|---|---|\n"
               + "\n".join(f"| {n} | {e:.4g} | {r:.4g} | {err:+.3g} | {tol:g}{'' if n not in spheric2.SHOWN_ONLY else ' (shown)'} |"
                           for n, e, r, err, tol, _ in rows)
-              + f"\n\nThe experiment's reservoir (H4) drains {1e3 * spheric2.reservoir_lead(run):.0f} ms ahead of the run's over "
+              + f"\n\nThe experiment's reservoir (H4) drains {1e3 * lead:.0f} ms ahead of the run's over "
               f"{spheric2.LEAD_WINDOW[0]:g}-{spheric2.LEAD_WINDOW[1]:g} s, before the flood reaches a gauge or the box "
-              "(shown, not judged: the experiment's clock against a release at t = 0; docs/accuracy.md §2h).")
+              "(shown, not judged: the experiment's clock against a release at t = 0; docs/accuracy.md §2h). "
+              "On the reservoir's clock (the record's times plus that lead) the arrivals' errors are "
+              + ", ".join(f"{n} {err - lead:+.3f} s" for n, _, _, err, _, _ in rows if n in spheric2.ARRIVALS) + ".")
     exp = spheric2.experiment()
     curves = []
     end = float(run["P1"][0][-1])

@@ -30,6 +30,8 @@ FIGURES = [
     ("H4 mean", "mean_h", 0.02),
     ("H1 mean", "mean_h", 0.02),
 ]
+#: the arrival times (kind "time")
+ARRIVALS = tuple(name for name, kind, _ in FIGURES if kind == "time")
 #: figures that are reported but not (yet) part of the pass/fail verdict
 SHOWN_ONLY = {"H1 mean"}
 
