@@ -220,8 +220,9 @@ def test_wall_law_read_at_a_layer_thickness_gives_that_layers_shear(P, ctx):
     """With ``wall_layer`` = delta the law is read at max(y, delta): a particle nearer the wall
     than delta, sliding at u_t, takes the tangential force of the layer delta thick with outer
     speed u_t (the laminar one times rho u_tau^2 y / (mu u_t), u_tau from the power law at
-    delta), the same wherever it is inside the layer; beyond delta it is read at its own y (the
-    layer 0 case); and a slip too slow for the law is the no-slip term."""
+    delta: one shear rho u_tau^2 wherever it is inside the layer), less than read at its own y;
+    beyond delta it is read at its own y (the layer 0 case); and a slip too slow for the law is
+    the no-slip term."""
     from wcsph.physics.viscosity import make_boundary_viscosity
 
     Elem = namedtuple("Elem", "x n v elementSize")
