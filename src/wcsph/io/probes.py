@@ -146,18 +146,25 @@ class PointProbes:
         gauges = [p for p in self.specs if p["kind"] == "level" and p["method"] == "volume"]
         if not flows and not gauges:
             return {}
-        x, v, m, rho = (a.astype(float) for a in state.owned_host("x", "v", "m", "rho"))
+        x, m, rho = state.owned_host("x", "m", "rho")
         h = state.h
         sums = []
         for pr in gauges:
+            # the particles within the support of the gauge's line and above its base first
+            # (a few hundred of the set), then the kernel on those only, in float64
             base = np.asarray(pr["position"], dtype=float)
-            r = np.linalg.norm(x[:-1] - base[:-1, None], axis=0) / h
+            r2 = np.zeros(x.shape[1])
+            for a in range(state.dim - 1):
+                r2 += (x[a] - base[a]) ** 2
+            sel = np.flatnonzero((r2 < 4.0 * h * h) & (x[-1] > base[-1]))
+            r = np.sqrt(r2[sel]) / h
             if state.dim == 2:
                 phi = 5.0 / (8.0 * h) * (1.0 - 0.5 * r) ** 3 * (1.5 * r + 1.0)
             else:
                 phi = 7.0 / (4.0 * np.pi * h * h) * (1.0 - 0.5 * r) ** 4 * (2.0 * r + 1.0)
-            sel = (r < 2.0) & (x[-1] > base[-1])
-            sums.append(float(np.sum(m[sel] / rho[sel] * phi[sel])))
+            sums.append(float(np.sum(m[sel].astype(float) / rho[sel].astype(float) * phi)))
+        if flows:
+            x, v, m, rho = (a.astype(float) for a in state.owned_host("x", "v", "m", "rho"))
         for pr in flows:
             n = np.asarray(pr["normal"], dtype=float)
             n /= np.linalg.norm(n)
