@@ -171,7 +171,7 @@ def short_blocks(case, rounded_top=False):
             length = hi - lo
             n = spacings(lo, hi, dp)
             if n and length - n * dp > SHORT * length:
-                fit = length / max(1, int(round(length / dp)))
+                fit = _fitted_axis(lo, hi, dp)[1]  # the spacing a fitted box would take
                 out.append(f"fluid[{k}] is {length:g} m along axis {a} and holds {n} spacings of dp = {dp:g} m "
                            f"({n * dp:.4g} m of fluid, {100 * (1 - n * dp / length):.1f} % short); a dp that divides "
                            f"{length:g} m samples it whole (e.g. {fit:.4g} m), or fill = \"fitted\" the box as drawn")
