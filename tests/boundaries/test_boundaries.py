@@ -526,15 +526,13 @@ def test_moving_square_keeps_the_box_mean_density_and_its_drag():
 
 @pytest.mark.validation  # 20 across to 6 s: about two minutes here
 def test_moving_square_with_boundary_particles_meets_the_reference_drag():
-    """SPHERIC 6 in the classic model (``wcsph validate``'s ``moving_square_classic``
-    settings: wall particles, no-slip by Adami's velocity, delta+ shifting) at 20 across: the
+    """SPHERIC 6 in the classic model (``moving_square_2d_classic`` as shipped: wall
+    particles, no-slip by Adami's velocity, delta+ shifting) at 20 across: the
     body's load, the reaction of the wall terms on the fluid, gives a mean C_D over 2-6 s
     within 5 % of the reference (measured -2.8 %) and an RMS of the difference, sampled every
     0.05 s, under 0.25 (measured 0.17 at 0.01 s; 0.10 at 40 across, where the check asks
     0.15; without the shifting the mean is +15 % and the RMS 2.1: the wake tears)."""
-    from wcsph.validation import SQUARE_CLASSIC
-
-    sim = wcsph.Simulation(load("moving_square_2d", [("time.end", 6.0), ("output.vtk", False)] + SQUARE_CLASSIC))
+    sim = wcsph.Simulation(load("moving_square_2d_classic", [("time.end", 6.0), ("output.vtk", False)]))
     t, cd = [], []
     while sim.t < 6.0 - 1e-9:
         _advance(sim, round(sim.t + 0.05, 6))

@@ -371,20 +371,10 @@ def moving_square(quick, overrides=(), case="moving_square_2d", label="WCSPH-BI"
                   [("SPH", t, cd, "sim"), ("reference", rt, rcd, "ref")], ("t [s]", "C_D"))
 
 
-#: ``moving_square_2d`` in the classic model: the square and the box walled with particles (the
-#: body's load the reaction of the wall terms on the fluid, -sum_j m_j a_jk), no-slip by Adami's
-#: extrapolated velocity (Re = 100's viscosity acts at the wall, as in the classic channels),
-#: Morris' viscous term, the continuity density with Fourtakas' diffusion and the linearized Cole
-#: EOS (the classic dam breaks' settings), delta+ shifting that keeps the wake filled as in the
-#: WCSPH-BI case; no XSPH. The case's sound speed (40 U) and background pressure.
-SQUARE_CLASSIC = [("model", {"name": "classic", "kernel": "wendland", "smoothing_ratio": 2.0, "xsph": "None",
-                             "density": "continuity", "DiffusiveTerm": "FourtakasDiffusiveTerm",
-                             "EOS": "LinearizedColeEquationOfState", "ViscousTerm": "PhysicalViscosity_MVT",
-                             "wall_velocity": "adami", "shifting": "DeltaPlus"})]
-
-
 def moving_square_classic(quick):
-    return moving_square(quick, SQUARE_CLASSIC, label="classic")
+    """SPHERIC 6 in the classic model (``moving_square_2d_classic``: the square and the box
+    walled with particles, the body's load the reaction of the wall terms on the fluid)."""
+    return moving_square(quick, case="moving_square_2d_classic", label="classic")
 
 
 def floating_box(quick):
