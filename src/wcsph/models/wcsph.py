@@ -318,6 +318,19 @@ class WCSPH:
             return rho0 / lattice_density_sum(kernel_w, self.dim, dp, h)
         return rho0 * dp ** self.dim
 
+    def initial_mass(self, mass, cell, rho, rho0):
+        """Each fluid particle's mass at the start: ``mass`` times its lattice cell (over
+        dp^dim), and with a continuity density under a pressure gradient that no Shepard sum
+        renormalizes (wall particles) times rho / rho0, so that its volume m / rho is its
+        cell: a column started at its hydrostatic density on the plain lattice had volumes
+        0.5-1 % short of the cells they stand in, a pressure gradient as much weaker, and
+        settled onto a floor pressure 1.7 % above its weight (docs/accuracy.md §4). The
+        consistent scheme divides by the Shepard sum, which makes up for the short volumes,
+        and keeps rho0 times the cell."""
+        if self.continuity and not self.consistent and self.boundary == "particles":
+            return mass * cell * (rho / rho0)
+        return mass * cell
+
     def kinematic_viscosity(self):
         """The largest kinematic viscosity a selected choice declares (``Choice.nu``), for
         the viscous time-step limit; 0 when none does."""

@@ -80,7 +80,7 @@ def build(case, backend, comm):
     for name, k, scratch in list(model.fluid_fields()) + list(integrator.fields):
         fluid.add(name, k, dtype, be, scratch=scratch)
     fluid["rho"] = be.to_device(rho.astype(dtype))
-    fluid["m"] = be.to_device((mass * cell0).astype(dtype))  # a fitted box's cell is not dp^dim
+    fluid["m"] = be.to_device(model.initial_mass(mass, cell0, rho, ph["rho0"]).astype(dtype))
     fluid["id"] = be.to_device(ids)
     if kind is not None:
         fluid["kind"] = be.to_device(kind)  # 0 fluid, 1 + k the buffer of open_boundary[k]
