@@ -320,14 +320,15 @@ class WCSPH:
 
     def initial_mass(self, mass, cell, rho, rho0):
         """Each fluid particle's mass at the start: ``mass`` times its lattice cell (over
-        dp^dim), and with a continuity density under a pressure gradient that no Shepard sum
-        renormalizes (wall particles) times rho / rho0, so that its volume m / rho is its
-        cell: a column started at its hydrostatic density on the plain lattice had volumes
-        0.5-1 % short of the cells they stand in, a pressure gradient as much weaker, and
-        settled onto a floor pressure 1.7 % above its weight (docs/accuracy.md §4). The
-        consistent scheme divides by the Shepard sum, which makes up for the short volumes,
-        and keeps rho0 times the cell."""
-        if self.continuity and not self.consistent and self.boundary == "particles":
+        dp^dim), and with a continuity density and wall particles times rho / rho0, so that
+        its volume m / rho is its cell: a column started at its hydrostatic density on the
+        plain lattice had volumes 0.5-1 % short of the cells they stand in, the classic
+        model's pressure gradient (no Shepard sum renormalizes it) as much weaker, and it
+        settled onto a floor pressure 1.7 % above its weight (docs/accuracy.md §4). Boundary
+        elements keep rho0 times the cell: the consistent scheme divides by the Shepard sum,
+        which makes up for the short volumes (with rho / rho0 its floor read 2 % low); the
+        conservative scheme is not renormalized either, and not measured with it."""
+        if self.continuity and self.boundary == "particles":
             return mass * cell * (rho / rho0)
         return mass * cell
 
