@@ -126,6 +126,25 @@ def test_open_channel_coarse(tmp_path):
     assert s["n_fluid"] == n0 + ob["created"] - ob["removed"]
 
 
+def test_an_inlet_particle_takes_the_mass_of_the_one_it_replaces():
+    """A buffer particle created at the inlet's far side takes the mass of the one that left
+    the buffer for the fluid (a fitted box's cell or a classic continuity start gives each
+    its own), not the case's particle mass: the inlet's buffer marked with 1.01 times it,
+    every particle created over 0.3 s carries the mark."""
+    over = [("time.end", 0.3), ("output.vtk", False), ("dp", 0.03125)]
+    sim = wcsph.Simulation(load("poiseuille_open_2d", over))
+    m, kind, ids = sim.host(sim.fluid, "m", "kind", "id")
+    n0 = int(ids.max()) + 1
+    inlet = [k + 1 for k, ob in enumerate(sim.case["open_boundary"]) if ob["kind"] == "inlet"]
+    m = np.where(np.isin(kind, inlet), 1.01 * m, m)
+    sim.fluid["m"] = sim.state.backend.to_device(m.astype(sim.fluid["m"].dtype))
+    sim.run(progress=False)
+    m, ids = sim.host(sim.fluid, "m", "id")
+    new = ids >= n0
+    assert new.sum() > 50
+    assert np.allclose(m[new], 1.01 * sim.state.mass, rtol=1e-6), np.unique(m[new])
+
+
 def test_open_boundary_case_errors():
     base = dict(BASE, domain={"min": [-0.5, -0.5], "max": [1.5, 1.5]})
     bad = [({"kind": "inlet", "min": [-0.2, 0.0], "max": [0.0, 0.5], "normal": [1.0, 0.0]}, r"open_boundary\[0\]\.velocity"),

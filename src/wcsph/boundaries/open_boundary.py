@@ -157,7 +157,8 @@ class OpenBoundaries:
         rho[idx] = rho0
         self._prescribe(state, x, v, rho, kind, t)
         keep = np.ones(f.n, dtype=bool)
-        new_x, new_v, new_rho, new_kind = [], [], [], []
+        new_x, new_v, new_rho, new_m, new_kind = [], [], [], [], []
+        m = None
         for k, ob in enumerate(self.specs):
             s = self.depth_along(k, x)
             mine = kind == k + 1
@@ -169,6 +170,9 @@ class OpenBoundaries:
                 new_x.append(nx)
                 new_v.append(self._velocity(k, nx, t))
                 new_rho.append(rho[entered])
+                if entered.any():  # each new buffer particle takes the mass of the one it replaces
+                    m = np.asarray(be.to_host(f["m"])) if m is None else m
+                    new_m.append(m[entered])
                 new_kind.append(np.full(nx.shape[1], k + 1, dtype=np.int64))
             else:
                 kind[(kind == 0) & (s < 0) & self._across(k, x)] = k + 1
@@ -180,7 +184,7 @@ class OpenBoundaries:
         new = None
         if new_x.shape[1]:
             new = {"x": new_x, "v": np.concatenate(new_v, axis=1), "rho": np.concatenate(new_rho),
-                   "kind": np.concatenate(new_kind)}
+                   "m": np.concatenate(new_m), "kind": np.concatenate(new_kind)}
         for name, a in (("x", x), ("v", v), ("rho", rho), ("kind", kind)):
             f[name] = be.to_device(a.astype(f[name].dtype))
         if new is not None or not keep.all():
@@ -244,8 +248,10 @@ class OpenBoundaries:
 
 def resize(state, keep, new):
     """Drop the fluid particles not in ``keep`` and append ``new`` (a dict of x, v, rho,
-    kind for the particles created): every per-particle array of the fluid set, on the host.
-    A new particle's mass is the particle mass, its id the next free one, a saved copy of a
+    kind and m for the particles created): every per-particle array of the fluid set, on the
+    host. A new particle's mass is ``new["m"]`` where given (an inlet: the mass of the buffer
+    particle it replaces, which a fitted box's cell or a classic continuity start made its
+    own), else the particle mass; its id the next free one, a saved copy of a
     field (an integrator's ``v_n``, ``rho_n``) its current value, every other field zero."""
     be, f = state.backend, state.fluid
     n_new = 0 if new is None else new["x"].shape[1]
