@@ -99,6 +99,14 @@ def lobovsky_pressure(sensor):
     return d[:, 0], d[:, 1]
 
 
+def lobovsky_level(gauge):
+    """(T, h / H) of Lobovsky et al. (2014), H = 0.3 m, at level gauge 1-4 (x = 0.3, 0.865,
+    1.114, 1.3625 m; ``lobovsky_2014_level_H{gauge}.dat``, their Fig. 16 as TNL-SPH ships
+    it): the mean of the experiment's series there (two at H2-H4, one at H1), T = t sqrt(g/H)."""
+    d = np.loadtxt(DATA / f"lobovsky_2014_level_H{gauge}.dat", comments="#")
+    return d[:, 0], d[:, 1:].mean(axis=1)
+
+
 def fekken_cylinder():
     """(T, displacement [m]) of Fekken's (2004) sinking cylinder, R = 1 m, T = t sqrt(g/R)."""
     d = np.loadtxt(DATA / "fekken_2004_cylinder_displacement.dat", comments="#")
