@@ -73,10 +73,16 @@ ParticleWallView = namedtuple("ParticleWallView", "x v psi cell start")
 ParticleWallViewFull = namedtuple("ParticleWallViewFull", "x v psi vol rho cell start")
 #: ... with the wall particles' own pressure (``wall_pressure = "adami"``)
 ParticleWallViewPressure = namedtuple("ParticleWallViewPressure", "x v a psi vol rho p pr cell start")
+#: ... each with the no-slip velocity the viscous terms read (``physics.viscosity``)
+ParticleWallViewNoSlip = namedtuple("ParticleWallViewNoSlip", "x v v_ext psi cell start")
+ParticleWallViewFullNoSlip = namedtuple("ParticleWallViewFullNoSlip", "x v v_ext psi vol rho cell start")
+ParticleWallViewPressureNoSlip = namedtuple("ParticleWallViewPressureNoSlip",
+                                            "x v v_ext a psi vol rho p pr cell start")
 #: boundary particles as the no-slip velocity pass writes them
 NoSlipWallView = namedtuple("NoSlipWallView", "x v v_ext cell start")
 #: the wall views, smallest first: a case's is the first with every field its walls' terms and passes read
-WALL_VIEWS = (ParticleWallView, ParticleWallViewFull, ParticleWallViewPressure, ElementView)
+WALL_VIEWS = (ParticleWallView, ParticleWallViewFull, ParticleWallViewPressure, ParticleWallViewNoSlip,
+              ParticleWallViewFullNoSlip, ParticleWallViewPressureNoSlip, ElementView)
 #: the kinds of the wall sets' fields a view may lack in a case (a stand-in is passed)
 WALL_FIELDS = {"n": "vector", "elementSize": "scalar", "psi": "scalar", "vol": "scalar", "p": "scalar",
                "rho": "scalar", "pr": "scalar"}
@@ -211,6 +217,7 @@ class WCSPH:
             self.density_pass = mk(dim, dtype, s["init_scalar"], fluid_term, s["store_density"], pair2=wall_term)
         # the passes the choices declare beyond their terms, in slot order
         declared = [p for c in sel.values() if c.passes is not None for p in c.passes(ctx, q)]
+        q.noslip = any(isinstance(p, WallPass) and p.velocity for p in declared)
         volume = [p for p in declared if isinstance(p, WallVolume)]
         self.volume_pass = mk(dim, dtype, volume[0].init, volume[0].pair, volume[0].store) if volume else None
         self.wall_passes = [(p, mk(dim, dtype, p.init, p.pair, p.store)) for p in declared if isinstance(p, WallPass)]
@@ -283,7 +290,7 @@ class WCSPH:
         # the smallest wall view with what the walls' terms and passes read
         reads = {f for flag, fields in wall.wall_reads.items() if flag is None or flag in implied for f in fields}
         for p, _ in self.wall_passes:
-            reads |= set(p.reads) | {f for f, _ in p.writes if not p.velocity}
+            reads |= set(p.reads) | {f for f, _ in p.writes}
         self.wall_view = next(v for v in WALL_VIEWS if reads <= set(v._fields))
         # the wall views of the load passes of boundary particles: the points they visit, and
         # the load they write
@@ -456,15 +463,14 @@ class WCSPH:
     def _wall_passes(self, walls, f, w, P, G, halo=None, loads=False):
         """The declared wall passes (with ``loads``, those the loads read, over the measured
         points only), each refreshing what it wrote on a decomposed run's walls; returns the
-        wall view ``w`` with the velocity a no-slip pass wrote."""
+        wall view ``w`` (a no-slip pass's velocity is its ``v_ext``, which only the viscous
+        terms read)."""
         noslip = self.noslip_load_view if loads else NoSlipWallView
         plain = self.view(walls, self.plain_load_view) if loads else w
         for p, run in (self.load_wall_passes if loads else self.wall_passes):
             run(self.view(walls, noslip) if p.velocity else plain, f, f, P, G)
             if halo is not None:
                 halo.walls(walls, tuple(name for name, _ in p.writes))
-            if p.velocity:
-                w = w._replace(v=walls["v_ext"])
         return w
 
     def wall_loads(self, fluid, walls, P, G):

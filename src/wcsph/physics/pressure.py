@@ -137,8 +137,12 @@ def make_monaghan_pi(ctx, wall=False):
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        vz = (I.v[2, i] - J.v[2, j]) * dz if dim == 3 else zero
-        x = min((I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz, zero) / (r * r + P.eps_h2)
+        if noslip:  # compile-time choice: the walls' no-slip velocity (``v_ext``)
+            vj = J.v_ext
+        else:
+            vj = J.v
+        vz = (I.v[2, i] - vj[2, j]) * dz if dim == 3 else zero
+        x = min((I.v[0, i] - vj[0, j]) * dx + (I.v[1, i] - vj[1, j]) * dy + vz, zero) / (r * r + P.eps_h2)
         rho_i, rho_j = I.rho[i], J.rho[j]
         c = half * (I.c[i] + (P.c0 if wall else J.c[j]))
         pi = (-P.av_alpha_h * c * x + P.av_beta_h2 * x * x) / (half * (rho_i + rho_j))
@@ -175,7 +179,7 @@ def _build_monaghan_av(ctx, q):
     t = _build_monaghan(ctx, q)
     t.fluid.append(make_monaghan_pi(ctx))
     if q.boundary == "particles":
-        t.wall.append(make_monaghan_pi(ctx, wall=True))
+        t.wall.append(make_monaghan_pi(ctx, wall=True, noslip=q.noslip))
     return t
 
 

@@ -170,6 +170,7 @@ class Quantities:
     continuity: bool = True
     sound: object = None  # jitable c(rho, P) of the EOS (set by the model)
     eos_density: object = None  # jitable rho(p, P) of the EOS
+    noslip: bool = False  # a wall pass makes the no-slip velocity v_ext the viscous terms read (set by the model)
 
 
 def make_params(dtype, q, sel, gravity, dt=1.0):

@@ -6,7 +6,11 @@ psi_ij = v_ij . x_ij / (r^2 + eps h^2) is shared by the bulk terms.
 
 Over boundary elements the wall term is the spec's boundary integral; over boundary particles
 (Akinci walls) the bulk term itself, with the particles' volume Psi/rho0, density rho0 and
-velocity: the no-slip wall of Morris, Fox & Zhu (1997) and Adami, Hu & Adams (2012).
+velocity: the no-slip wall of Morris, Fox & Zhu (1997) and Adami, Hu & Adams (2012). Where the
+walls make the no-slip velocity ``v_ext`` (``wall_velocity = "adami"``; ``q.noslip``, the
+terms' ``noslip``) the viscous terms read it and nothing else does: the continuity equation,
+XSPH, shifting and the collision read the wall's own velocity, so a no-slip wall does not
+compress the water it shears (DualSPHysics' no-slip mDBC and TrixiParticles.jl do the same).
 """
 import math
 
@@ -17,17 +21,21 @@ from .registry import NONNEG, POS, Choice, Param, add, one_of
 from .interaction import Terms, add_force
 
 
-def make_artificial_viscosity(ctx, wall=False):
+def make_artificial_viscosity(ctx, wall=False, noslip=False):
     """Monaghan (1992) artificial viscosity, active between approaching particles:
     Dv_i/Dt += alpha h c0 sum_j m_j psi_ij / rho_bar_ij grad_i W_ij, rho_bar the mean density."""
     grad, dim, zero, two = ctx.grad, ctx.dim, ctx.zero, ctx.dtype(2)
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        vz = (I.v[2, i] - J.v[2, j]) * dz if dim == 3 else zero
+        if noslip:  # compile-time choice: the walls' no-slip velocity (``v_ext``)
+            vj = J.v_ext
+        else:
+            vj = J.v
+        vz = (I.v[2, i] - vj[2, j]) * dz if dim == 3 else zero
         # only approaching pairs (v_ij . x_ij < 0); a min, not a branch, keeps the loop
         # vectorised (an early return made the whole pass 3.8 times slower)
-        vx = min((I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz, zero)
+        vx = min((I.v[0, i] - vj[0, j]) * dx + (I.v[1, i] - vj[1, j]) * dy + vz, zero)
         rho_i, rho_j = I.rho[i], J.rho[j]
         # one division per pair, not two
         f = (P.wall_visc if wall else P.visc) * two * rho_i * rho_j * vx / ((rho_i + rho_j) * (r * r + P.eps_h2)) * grad(r, P) * J.vol[j]
@@ -36,7 +44,7 @@ def make_artificial_viscosity(ctx, wall=False):
     return term
 
 
-def make_mgvt(ctx, wall=False):
+def make_mgvt(ctx, wall=False, noslip=False):
     """Monaghan & Gingold (1983) form of mu <Lap v + 2 grad div v>:
     2 (n + 2) mu sum_j psi_ij grad_i W_ij V_j (Monaghan 2005, sec. 6.2); the force is along
     x_ij, so fluid pairs conserve angular momentum."""
@@ -44,15 +52,19 @@ def make_mgvt(ctx, wall=False):
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        vz = (I.v[2, i] - J.v[2, j]) * dz if dim == 3 else zero
-        vx = (I.v[0, i] - J.v[0, j]) * dx + (I.v[1, i] - J.v[1, j]) * dy + vz
+        if noslip:  # compile-time choice: the walls' no-slip velocity (``v_ext``)
+            vj = J.v_ext
+        else:
+            vj = J.v
+        vz = (I.v[2, i] - vj[2, j]) * dz if dim == 3 else zero
+        vx = (I.v[0, i] - vj[0, j]) * dx + (I.v[1, i] - vj[1, j]) * dy + vz
         f = (P.wall_visc if wall else P.visc) * vx / (r * r + P.eps_h2) * grad(r, P) * J.vol[j]
         return add_force(acc, f * dx, f * dy, f * dz)
 
     return term
 
 
-def make_mvt(ctx, wall=False):
+def make_mvt(ctx, wall=False, noslip=False):
     """Morris, Fox & Zhu (1997) Laplacian, mu <Lap v> = 2 mu sum_j V_j v_ij
     (x_ij . grad_i W_ij) / (r^2 + eps h^2). (The spec's table prints v_ij . x_ij grad W, the
     Monaghan-Gingold shape; Morris's operator is the one above.)"""
@@ -60,10 +72,14 @@ def make_mvt(ctx, wall=False):
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
+        if noslip:  # compile-time choice: the walls' no-slip velocity (``v_ext``)
+            vj = J.v_ext
+        else:
+            vj = J.v
         r2 = r * r
         f = (P.wall_visc if wall else P.visc) * r2 * grad(r, P) / (r2 + P.eps_h2) * J.vol[j]
-        fz = f * (I.v[2, i] - J.v[2, j]) if dim == 3 else zero
-        return add_force(acc, f * (I.v[0, i] - J.v[0, j]), f * (I.v[1, i] - J.v[1, j]), fz)
+        fz = f * (I.v[2, i] - vj[2, j]) if dim == 3 else zero
+        return add_force(acc, f * (I.v[0, i] - vj[0, j]), f * (I.v[1, i] - vj[1, j]), fz)
 
     return term
 
@@ -118,7 +134,7 @@ def make_boundary_viscosity(ctx, artificial, law="no-slip"):
     return term
 
 
-def make_velocity_gradient(ctx, elements=False, shepard=True):
+def make_velocity_gradient(ctx, elements=False, shepard=True, noslip=False):
     """Pair term of the velocity gradient G_ab = d v_a / d x_b of fluid particle i and its
     Shepard sum gamma_i (accumulator: G row by row, then gamma). Over fluid neighbours and
     boundary particles (their velocity: the wall's, or the no-slip one extrapolated to them)
@@ -127,14 +143,19 @@ def make_velocity_gradient(ctx, elements=False, shepard=True):
     completes the truncated support: sum_j V_j (f_j - f_i) grad_i W_ij + sum_b (f_b - f_i)
     n_b W_ib S_b = int grad f W = gamma_i grad f_i (Ferrand et al. 2013). ``shepard=False``
     (boundary particles, whose full support makes gamma 1): no gamma, the store divides by
-    nothing, and the pass evaluates no kernel value."""
+    nothing, and the pass evaluates no kernel value. ``noslip``: the boundary particles' no-slip
+    velocity ``v_ext`` (module docstring)."""
     grad, w, dim, zero = ctx.grad, ctx.w, ctx.dim, ctx.zero
 
     @register_jitable
     def term(i, j, dx, dy, dz, r, I, J, P, acc):
-        ux = J.v[0, j] - I.v[0, i]
-        uy = J.v[1, j] - I.v[1, i]
-        uz = J.v[2, j] - I.v[2, i] if dim == 3 else zero
+        if noslip:  # compile-time choice: the walls' no-slip velocity (``v_ext``)
+            vj = J.v_ext
+        else:
+            vj = J.v
+        ux = vj[0, j] - I.v[0, i]
+        uy = vj[1, j] - I.v[1, i]
+        uz = vj[2, j] - I.v[2, i] if dim == 3 else zero
         if elements:  # compile-time choice
             s = w(r, P) * J.elementSize[j]
             gx, gy = J.n[0, j] * s, J.n[1, j] * s
@@ -245,7 +266,7 @@ def _builder(make, artificial=False):
         if q.boundary == "elements":
             wall = make_boundary_viscosity(ctx, artificial, q.m.get("wall_law", "no-slip"))
         else:
-            wall = make(ctx, wall=True)
+            wall = make(ctx, wall=True, noslip=q.noslip)
         return Terms([make(ctx)], [wall])
     return build
 
@@ -292,7 +313,7 @@ def _sps_build(ctx, q):
 def _sps_passes(ctx, q):
     init, store = make_sps_stress(ctx)
     elements = q.boundary == "elements"
-    wall = make_velocity_gradient(ctx, elements=elements, shepard=elements)
+    wall = make_velocity_gradient(ctx, elements=elements, shepard=elements, noslip=q.noslip)
     return [FluidPass(init, make_velocity_gradient(ctx, shepard=elements), store, wall=wall, writes=("tau_rho2",))]
 
 

@@ -695,7 +695,7 @@ def lobovsky(quick, overrides=(), label="WCSPH-BI"):
 #: checks whose tolerance is a goal of the project not reached yet (docs/accuracy.md says by
 #: how much and why): they run and report like the others, and ``test_full_validation_set``
 #: expects exactly these to fail, so one that starts to pass must leave this set
-OPEN_GOALS = {"spheric2_bi", "spheric2_classic"}
+OPEN_GOALS = {"spheric2_bi", "spheric2_classic", "moving_square_classic"}
 
 #: (function, in the quick subset)
 CHECKS = [
