@@ -86,8 +86,8 @@ class Output:
     def _write_fluid(self, base):
         """The fluid's frame ``base``: one .vtu, or a rank's piece each and their .pvtu."""
         state, par = self.state, self.par
-        x, v, rho, p, ids = state.owned_host("x", "v", "rho", "p", "id")
-        fields = {"rho": rho, "p": p, "v": v, "id": ids}
+        x, v, rho, p, m, ids = state.owned_host("x", "v", "rho", "p", "m", "id")
+        fields = {"rho": rho, "p": p, "v": v, "m": m, "id": ids}
         if "kind" in state.fluid.arrays:
             fields["kind"] = state.owned_host("kind")[0]
         if par is None:
