@@ -365,3 +365,61 @@ def test_a_fluid_box_its_lattice_falls_short_of_is_named():
     assert [line.split(" (")[0] for line in geometry.short_blocks(case)] == [
         "fluid[0] is 0.55 m along axis 2 and holds 27 spacings of dp = 0.02 m"]
     assert geometry.short_blocks(case, rounded_top=True) == []
+
+
+def _outline_mesh(path, loops):
+    """A 2D mesh of line segments along each closed loop ((M, 2) points, in its order) into
+    ``path``; returns the path."""
+    import meshio
+
+    pts, segs = [], []
+    for loop in loops:
+        base = len(pts)
+        pts += [list(p) + [0.0] for p in loop]
+        segs += [[base + i, base + (i + 1) % len(loop)] for i in range(len(loop))]
+    meshio.write(path, meshio.Mesh(np.array(pts, dtype=float), [("line", np.array(segs))]))
+    return str(path)
+
+
+def test_a_2d_wall_mesh_gets_the_wall_particles_of_the_same_polygon(tmp_path):
+    """The classic model's wall particles of a 2D mesh are a polygon's, in rows along its
+    outlines (``polygon_particles``), whichever way the file runs: a body (a 24-gon, fluid
+    outside) and a tank outline (fluid inside) give the same points and cells as the same
+    outlines given as ``[[polygon]]`` started at the same vertex, the one of least x (then
+    y: a row without corners is cut evenly from where its outline starts). Until 2026-12-08
+    a 2D mesh was sampled on the fluid's lattice: a staircase round a curved body."""
+    body = [[0.5 + 0.15 * math.cos(a), 0.35 + 0.15 * math.sin(a)] for a in np.linspace(0, 2 * math.pi, 24, endpoint=False)]
+    tank = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]  # counter-clockwise: the fluid inside
+    base = {"dim": 2, "dp": 0.05, "time": {"end": 0.1}, "model": {"name": "classic"},
+            "fluid": [{"min": [0.0, 0.0], "max": [1.0, 0.6]}]}
+    cw = body[::-1]  # clockwise: a body
+    k = min(range(len(cw)), key=lambda i: tuple(cw[i]))
+    polygons = validate(dict(base, polygon=[{"points": tank, "closed": True},
+                                            {"points": cw[k:] + cw[:k], "closed": True}]))
+    _, want, _, _ = geometry.build(polygons)
+    for order in (1, -1):  # the file's own direction does not matter: read_surface orients it
+        meshes = validate(dict(base, walls=[
+            {"mesh": _outline_mesh(tmp_path / f"tank{order}.vtk", [tank[::order]]), "fluid_side": "inside"},
+            {"mesh": _outline_mesh(tmp_path / f"body{order}.vtk", [body[::order]]), "fluid_side": "outside"}]))
+        _, got, _, _ = geometry.build(meshes)
+        assert got["x"].shape == want["x"].shape and np.array_equal(np.sort(got["body"]), np.sort(want["body"]))
+        d = np.sqrt(((got["x"][:, :, None] - want["x"][:, None, :]) ** 2).sum(axis=0))
+        match = d.argmin(axis=1)  # the loops may start elsewhere: each point's nearest
+        assert d.min(axis=1).max() < 1e-9 and len(set(match)) == len(match)
+        assert np.allclose(got["cell"], want["cell"][match], atol=1e-9)
+    # the body's first row on the 24-gon moved half a spacing in: between its edges' offset
+    # (the apothem less dp/2) and its vertices' (R less dp/2 / cos(pi/24))
+    inner = got["x"][:, got["body"] == 1]
+    r = np.hypot(inner[0] - 0.5, inner[1] - 0.35)
+    first = r[r > 0.1]
+    assert 0.15 * math.cos(math.pi / 24) - 0.025 - 1e-9 <= first.min()
+    assert abs(first.max() - (0.15 - 0.025 / math.cos(math.pi / 24))) < 1e-9
+
+
+def test_two_outlines_of_a_2d_mesh_that_meet_at_a_vertex_are_one_line(tmp_path):
+    path = _outline_mesh(tmp_path / "bow.vtk", [[[0.2, 0.2], [0.4, 0.2], [0.3, 0.3]], [[0.3, 0.3], [0.4, 0.4], [0.2, 0.4]]])
+    case = validate({"dim": 2, "dp": 0.05, "time": {"end": 0.1}, "model": {"name": "classic"},
+                     "tank": {"min": [0.0, 0.0], "max": [1.0, 1.0]}, "fluid": [{"min": [0.0, 0.0], "max": [1.0, 0.1]}],
+                     "walls": [{"mesh": path}]})
+    with pytest.raises(CaseError, match=r"walls\[0\]\.mesh: two outlines meet at vertex \(0\.3, 0\.3\)"):
+        geometry.build(case)

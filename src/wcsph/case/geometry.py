@@ -7,7 +7,8 @@ kinds, after the model:
   faces, an obstacle's faces), on a lattice fitted to each box (``fitted_lattice``: a whole
   number of spacings of about dp across it), so that every face is half a spacing beyond its
   outer layer; a 2D polygon's in rows along its outline (``polygon_particles``), the outline
-  half a spacing beyond the first; a mesh's on the fluid's lattice; each point carries its
+  half a spacing beyond the first, and a 2D mesh's outlines the same way; a 3D mesh's on the
+  fluid's lattice; each point carries its
   cell's volume over dp^dim (``cell``), which scales its pseudo-mass;
 * boundary elements (WCSPH-BI): the wall surface cut into segments (2D) or rectangular faces
   (3D) of size about ``boundaryElementSize`` (a length in 2D, an area in 3D; default dp or dp^2), each with its centre ``x``, size
@@ -482,18 +483,59 @@ def _file_elements(case, k, w, size):
 
 
 def _file_particles(case, k, w, dp, layers):
-    """Wall particles of ``walls[k]``: the points of a point file, or the lattice points
-    within ``layers`` dp of a closed mesh on its wall side (inside a body, outside a tank)."""
+    """Wall particles of ``walls[k]`` and their cells (one volume for all, or one each): the
+    points of a point file; a 2D mesh's closed outlines in rows along them, as a polygon's
+    (``polygon_particles``); a 3D mesh's lattice points within ``layers`` dp of it on its wall
+    side (inside a body, outside a tank)."""
     key, dim = f"walls[{k}]", case["dim"]
     if w["file"]:
-        return _read(case, key + ".file", read_points, _path(case, w["file"]), dim)["x"]
+        return _read(case, key + ".file", read_points, _path(case, w["file"]), dim)["x"], dp ** dim
     verts, faces = _read(case, key + ".mesh", read_surface, _path(case, w["mesh"]), dim)
+    if dim == 2:
+        # an outward-oriented outline has the mesh's inside on its left: the fluid's side
+        # for a tank, the solid's (travelled the other way) for a body
+        loops = [_from_first(loop if w["fluid_side"] == "inside" else loop[::-1])
+                 for loop in _read(case, key + ".mesh", outline_loops, verts, faces)]
+        rows = [polygon_particles(loop, dp, layers) for loop in loops]
+        return np.concatenate([x for x, _ in rows], axis=1), np.concatenate([c for _, c in rows])
     t = layers * dp
     pts = lattice(verts.min(axis=1) - t, verts.max(axis=1) + t, dp)
     within = surface_distance(pts, verts, faces, dp) < t
     pts = pts[:, within]
     ins = inside(pts, verts, faces)
-    return pts[:, ~ins if w["fluid_side"] == "inside" else ins]
+    return pts[:, ~ins if w["fluid_side"] == "inside" else ins], dp ** dim
+
+
+def _from_first(loop):
+    """``loop`` (M, 2) started at its vertex of least x (then y): a row cut evenly all round
+    (``polygon_particles``) starts where its outline does, so a mesh's particles do not move
+    with the order its file lists the segments in."""
+    k = min(range(len(loop)), key=lambda i: (loop[i, 0], loop[i, 1]))
+    return np.roll(loop, -k, axis=0)
+
+
+def outline_loops(verts, segments):
+    """The closed outlines of a 2D mesh (``read_surface``: closed, oriented segments), each
+    as its vertices (M, 2) in the segments' direction of travel. A vertex where two outlines
+    touch (two segments leave it) is a GeometryError naming it."""
+    nxt = {}
+    for a, b in segments:
+        if int(a) in nxt:
+            x = verts[:, int(a)]
+            raise GeometryError(f"two outlines meet at vertex ({x[0]:g}, {x[1]:g}); "
+                                "give each outline its own vertices")
+        nxt[int(a)] = int(b)
+    loops, seen = [], set()
+    for start in nxt:
+        if start in seen:
+            continue
+        loop, v = [], start
+        while v not in seen:
+            seen.add(v)
+            loop.append(v)
+            v = nxt[v]
+        loops.append(verts[:, loop].T.copy())
+    return loops
 
 
 def _file_fluid(case, k, block, dp):
@@ -688,7 +730,7 @@ def build(case, column=None):
                 raise CaseError(f"{src}: polygon[{k}]: thinner than dp = {dp} everywhere, it gets no wall "
                                 "particle; use a smaller dp, or boundary elements for thin walls (model.name = \"bi\")")
         for k, w in enumerate(case["walls"]):
-            sources.append((_file_particles(case, k, w, dp, layers), dp ** dim))
+            sources.append(_file_particles(case, k, w, dp, layers))
         parts = [x for x, _ in sources]
         wall_set = {"x": np.concatenate(parts, axis=1) if parts else np.zeros((dim, 0)),
                     "body": np.concatenate([np.full(p.shape[1], b, dtype=np.int64) for b, p in enumerate(parts)])
