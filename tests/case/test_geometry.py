@@ -423,3 +423,12 @@ def test_two_outlines_of_a_2d_mesh_that_meet_at_a_vertex_are_one_line(tmp_path):
                      "walls": [{"mesh": path}]})
     with pytest.raises(CaseError, match=r"walls\[0\]\.mesh: two outlines meet at vertex \(0\.3, 0\.3\)"):
         geometry.build(case)
+
+
+def test_a_2d_wall_mesh_thinner_than_dp_everywhere_is_one_line(tmp_path):
+    path = _outline_mesh(tmp_path / "fin.vtk", [[[0.4, 0.5], [0.4, 0.52], [0.6, 0.52], [0.6, 0.5]]])
+    case = validate({"dim": 2, "dp": 0.05, "time": {"end": 0.1}, "model": {"name": "classic"},
+                     "tank": {"min": [0.0, 0.0], "max": [1.0, 1.0]}, "fluid": [{"min": [0.0, 0.0], "max": [1.0, 0.1]}],
+                     "walls": [{"mesh": path}]})
+    with pytest.raises(CaseError, match=r"walls\[0\]\.mesh: thinner than dp = 0\.05 everywhere"):
+        geometry.build(case)

@@ -497,7 +497,11 @@ def _file_particles(case, k, w, dp, layers):
         loops = [_from_first(loop if w["fluid_side"] == "inside" else loop[::-1])
                  for loop in _read(case, key + ".mesh", outline_loops, verts, faces)]
         rows = [polygon_particles(loop, dp, layers) for loop in loops]
-        return np.concatenate([x for x, _ in rows], axis=1), np.concatenate([c for _, c in rows])
+        x = np.concatenate([x for x, _ in rows], axis=1)
+        if x.shape[1] == 0:
+            raise CaseError(f"{case['_source']}: {key}.mesh: thinner than dp = {dp} everywhere, it gets no wall "
+                            "particle; use a smaller dp, or boundary elements for thin walls (model.name = \"bi\")")
+        return x, np.concatenate([c for _, c in rows])
     t = layers * dp
     pts = lattice(verts.min(axis=1) - t, verts.max(axis=1) + t, dp)
     within = surface_distance(pts, verts, faces, dp) < t
