@@ -124,15 +124,16 @@ def make_akinci_pressure(ctx, mirrored=True):
     return term
 
 
-def make_monaghan_pi(ctx, wall=False):
+def make_monaghan_pi(ctx, wall=False, noslip=False):
     """a_i -= sum_j m_j Pi_ij grad_i W_ij with Monaghan's (1992) artificial viscosity, as the
     third spec writes it: Pi_ij = (-alpha c_ij mu_ij + beta mu_ij^2) / rho_ij for approaching
     pairs (v_ij . x_ij < 0), else 0; mu_ij = h v_ij . x_ij / (r^2 + eta^2), c_ij and rho_ij
     the means of the pair's sound speeds (the EOS's, stored per particle as ``c``: computed
     per pair, its power made the step 3.6 times slower) and densities. eta^2 = ``eps`` h^2.
     m_j = V_j rho_j, which is Psi_k over boundary particles (``wall``: rho = rho0, c = c0
-    there). ``P.av_alpha_h`` = alpha h, ``P.av_beta_h2`` = beta h^2. A min, not a branch,
-    selects the approaching pairs (the loop stays vectorised)."""
+    there; ``noslip``: their no-slip velocity, ``physics.viscosity``). ``P.av_alpha_h`` = alpha
+    h, ``P.av_beta_h2`` = beta h^2. A min, not a branch, selects the approaching pairs (the
+    loop stays vectorised)."""
     grad, dim, zero, half = ctx.grad, ctx.dim, ctx.zero, ctx.dtype(0.5)
 
     @register_jitable
