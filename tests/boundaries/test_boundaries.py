@@ -599,7 +599,7 @@ def test_open_channel_in_3d_with_a_periodic_span():
     assert ob["created"] > 1000 and abs(ob["created"] - ob["removed"]) <= 100
 
 
-def _first_row_rates(wall_velocity, velocity, dp=0.02, dt=1e-5, model=None):
+def _first_row_rates(wall_velocity, velocity, dp=0.02, dt=1e-5, model=None, bi=None):
     """(the density rate, the acceleration) of the row of wall particles' first fluid
     neighbours: a still-water box 10 dp high over a floor, periodic along x, every particle
     started at ``velocity``, one step of ``dt`` in the classic model with a continuity density
@@ -611,7 +611,9 @@ def _first_row_rates(wall_velocity, velocity, dp=0.02, dt=1e-5, model=None):
         "domain": {"periodic": [True, False]},
         "model": {"name": "classic", "density": "continuity", "DiffusiveTerm": "None", "xsph": "None",
                   "EOS": "LinearizedColeEquationOfState", "ViscousTerm": "PhysicalViscosity_MVT",
-                  "dynamicViscosity": 1.0e-3, "wall_velocity": wall_velocity, **(model or {})},
+                  "dynamicViscosity": 1.0e-3, "wall_velocity": wall_velocity, **(model or {})} if bi is None else
+                 {"name": "bi", "BCType": "BIConsistent_numeric", "DiffusiveTerm": "None",
+                  "EOS": "LinearizedColeEquationOfState", "ViscousTerm": bi, "dynamicViscosity": 1.0e-3},
         "physics": {"rho0": 1000.0, "speed_of_sound": 20.0, "gravity": [0.0, 0.0]},
         "time": {"end": 1.0}, "output": {"vtk": False, "progress": False}})
     sim = wcsph.Simulation(case)
@@ -656,3 +658,21 @@ def test_monaghans_artificial_viscosity_reads_the_no_slip_velocity_too():
     drho_p, _ = _first_row_rates("prescribed", [0.0, -0.1], model=av)
     drho_a, _ = _first_row_rates("adami", [0.0, -0.1], model=av)
     assert drho_a == pytest.approx(drho_p, rel=1e-4)  # (Pi pushes the rows apart unalike within the step)
+
+
+def test_how_hard_each_wall_term_drags_the_first_row():
+    """Water sliding at U along a floor, one step: the first row's deceleration in nu U / dp^2
+    (a layer dp thick sheared over dp/2 by a no-slip wall: 2), the table of docs/accuracy.md
+    §2c. WCSPH-BI's MVT boundary term 1.90, its MGVT term 4 times that (the spec's 2 (n + 2) mu
+    on the unprojected (v_i - v_b) / d), the wall particles' Morris term 0.53 at the wall's
+    velocity and 1.07 at Adami's no-slip one. On Lobovsky's wall the foot pressure follows
+    this order; the drag grows as dp shrinks."""
+    nu, U, dp = 1.0e-6, 0.1, 0.02
+    drag = {}
+    for label, kw in [("classic", {"wall_velocity": "prescribed"}), ("classic no-slip", {"wall_velocity": "adami"}),
+                      ("MVT", {"wall_velocity": None, "bi": "PhysicalViscosity_MVT"}),
+                      ("MGVT", {"wall_velocity": None, "bi": "PhysicalViscosity_MGVT"})]:
+        _, a = _first_row_rates(kw.pop("wall_velocity"), [U, 0.0], dp, **kw)
+        drag[label] = -a[0] / (nu * U / dp ** 2)
+    assert drag["MGVT"] / drag["MVT"] == pytest.approx(4.0, rel=0.01), drag
+    assert 1.7 < drag["MVT"] < 2.1 and 0.45 < drag["classic"] < 0.6 and 0.95 < drag["classic no-slip"] < 1.2, drag
