@@ -548,10 +548,11 @@ def test_moving_square_with_boundary_particles_meets_the_reference_drag():
     """SPHERIC 6 in the classic model (``moving_square_2d_classic`` as shipped: wall
     particles, no-slip by Adami's velocity in the viscous terms, delta+ shifting) at 20
     across: the body's load, the reaction of the wall terms on the fluid, gives a mean C_D
-    over 2-6 s within 10 % of the reference and an RMS of the difference, sampled every
+    over 2-6 s within 5 % of the reference and an RMS of the difference, sampled every
     0.05 s, under 0.25. Measured 2026-12-08: +6.2 %, RMS 0.120 (40 across, the check: +7.7 %,
-    RMS 0.132; the goal's 5 % on the mean is open, ``OPEN_GOALS``; -2.8 % while the
-    continuity equation read the no-slip velocity too, docs/accuracy.md §4). Without the
+    RMS 0.132; -2.8 % while the continuity equation read the no-slip velocity too,
+    docs/accuracy.md §4): the mean's 5 % is an open goal (``OPEN_GOALS``), reported as an
+    expected failure while it is, and a mean 10 % off or an RMS over 0.25 fails. Without the
     shifting the mean is +15 % and the RMS 2.1: the wake tears."""
     sim = wcsph.Simulation(load("moving_square_2d_classic", [("time.end", 6.0), ("output.vtk", False)]))
     t, cd = [], []
@@ -562,9 +563,12 @@ def test_moving_square_with_boundary_particles_meets_the_reference_drag():
             cd.append(-2.0 * sim.body_loads()["square_fx"])
     rt, rcd = ref.moving_square_drag()
     mean_ref = rcd[(rt >= 2.0) & (rt <= 6.0)].mean()
-    assert abs(np.mean(cd) / mean_ref - 1.0) < 0.10, np.mean(cd)
     rms = np.sqrt(np.mean((np.array(cd) - np.interp(t, rt, rcd)) ** 2))
     assert rms < 0.25, rms
+    err = abs(np.mean(cd) / mean_ref - 1.0)
+    assert err < 0.10, np.mean(cd)
+    if err >= 0.05:
+        pytest.xfail(f"open goal: mean C_D {np.mean(cd):.3f}, {err:.1%} from the reference (goal 5 %)")
 
 
 @pytest.mark.validation
